@@ -1,0 +1,206 @@
+"""Symbolic derivation of the rolling-disk state equations with SymPy.
+
+This module follows L. Jaulin, *Modelisation of a rolling disk with Sympy*, section by section, so that it can be
+read beside the paper. It is the only module of the package that imports SymPy; nothing imports it at run time.
+``rolling_disk_env.codegen`` turns its result into the committed numeric code in ``rolling_disk_env/_generated``.
+
+Conventions (the paper's):
+
+* World frame: ``x, y`` horizontal, ``z`` up (m). The generalized coordinates are
+  ``q = (c1, c2, phi, theta, psi)``: ``(c1, c2)`` the horizontal position of the disk's centre (m), ``phi`` the spin
+  angle, ``theta`` the stand (lean) angle, 0 when the disk is vertical, and ``psi`` the heading (rad).
+* Orientation ``R = R_psi R_theta R_phi`` (rotations about z, y, x). The body ``x`` axis ``R e1`` is the disk's
+  symmetry axis; a thin uniform disk has inertia ``diag(m r^2 / 2, m r^2 / 4, m r^2 / 4)`` in the body frame.
+* The state is ``x = (c1, c2, phi, theta, psi, dphi, dtheta, dpsi)``.
+
+Extension beyond the paper: two input torques applied to the disk, in N m,
+
+* ``tau_spin`` about the disk's own symmetry axis ``R e1``,
+* ``tau_steer`` about the vertical ``+z``,
+
+mapped to generalized forces by virtual power, ``Q_torque = J_omega(q)^T T`` with ``omega_world = J_omega(q) dq/dt``.
+The result is control-affine: ``ddq = f(q, dq) + B(q) u`` and ``lambda = lambda_f(q, dq) + lambda_B(q) u``, with
+``u = (tau_spin, tau_steer)``.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import sympy as sp
+
+# Section 2.1, symbolic variables. Time, the disk's constants and the generalized coordinates q(t).
+t = sp.Symbol("t")
+m, g, r = sp.symbols("m g r", positive=True)
+c1_t, c2_t, phi_t, theta_t, psi_t = (sp.Function(name)(t) for name in ("c1", "c2", "phi", "theta", "psi"))
+q_t = sp.Matrix([c1_t, c2_t, phi_t, theta_t, psi_t])
+
+# Plain symbols for the same quantities once time derivatives have been taken: these name the arguments of the
+# generated code. Order of the state: x = (c1, c2, phi, theta, psi, dphi, dtheta, dpsi).
+c1, c2, phi, theta, psi = sp.symbols("c1 c2 phi theta psi")
+dc1, dc2, dphi, dtheta, dpsi = sp.symbols("dc1 dc2 dphi dtheta dpsi")
+ddc1, ddc2, ddphi, ddtheta, ddpsi = sp.symbols("ddc1 ddc2 ddphi ddtheta ddpsi")
+lambda1, lambda2 = sp.symbols("lambda1 lambda2")
+tau_spin, tau_steer = sp.symbols("tau_spin tau_steer")
+
+q = sp.Matrix([c1, c2, phi, theta, psi])
+dq = sp.Matrix([dc1, dc2, dphi, dtheta, dpsi])
+ddq = sp.Matrix([ddc1, ddc2, ddphi, ddtheta, ddpsi])
+multipliers = sp.Matrix([lambda1, lambda2])
+torques = sp.Matrix([tau_spin, tau_steer])
+state = (c1, c2, phi, theta, psi, dphi, dtheta, dpsi)
+
+
+def to_symbols(expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
+    """Replaces q(t) and its first two time derivatives by the plain symbols q, dq, ddq."""
+    second = {qi.diff(t, 2): ddqi for qi, ddqi in zip(q_t, ddq)}
+    first = {qi.diff(t): dqi for qi, dqi in zip(q_t, dq)}
+    coordinates = dict(zip(q_t, q))
+    return expr.subs(second).subs(first).subs(coordinates)
+
+
+def to_functions(expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
+    """Inverse of :func:`to_symbols` for q and dq: makes an expression differentiable in time."""
+    return expr.subs({dqi: qi.diff(t) for qi, dqi in zip(q_t, dq)}).subs(dict(zip(q, q_t)))
+
+
+# Section 2.2, orientation.
+def euler_rotation(phi: sp.Expr, theta: sp.Expr, psi: sp.Expr) -> sp.Matrix:
+    """The paper's ``Reuler``: ``R = R_psi R_theta R_phi`` (spin about x, lean about y, heading about z)."""
+    r_phi = sp.Matrix([[1, 0, 0], [0, sp.cos(phi), -sp.sin(phi)], [0, sp.sin(phi), sp.cos(phi)]])
+    r_theta = sp.Matrix([[sp.cos(theta), 0, sp.sin(theta)], [0, 1, 0], [-sp.sin(theta), 0, sp.cos(theta)]])
+    r_psi = sp.Matrix([[sp.cos(psi), -sp.sin(psi), 0], [sp.sin(psi), sp.cos(psi), 0], [0, 0, 1]])
+    return r_psi * r_theta * r_phi
+
+
+def body_angular_velocity(rotation: sp.Matrix) -> sp.Matrix:
+    """The paper's ``wr``: the rotation vector in the body frame, from ``R^T dR/dt`` (rad/s)."""
+    skew = rotation.T * rotation.diff(t)
+    return sp.Matrix([-skew[1, 2], skew[0, 2], -skew[0, 1]])
+
+
+@dataclass(frozen=True)
+class Derivation:
+    """Every intermediate result of the derivation, as expressions in the plain symbols of this module.
+
+    Attributes:
+        rotation: ``R(phi, theta, psi)``, body to world.
+        omega_body: angular velocity in the body frame, ``omega_r`` (rad/s).
+        omega_world: angular velocity in the world frame, ``R omega_r`` (rad/s).
+        centre: the disk's centre ``(c1, c2, r cos(theta))`` (m).
+        kinetic_energy: ``E_K`` (J).
+        potential_energy: ``E_p`` (J).
+        lagrangian: ``L = E_K - E_p`` (J).
+        euler_lagrange: ``Q(q, dq, ddq) = d/dt dL/ddq - dL/dq`` (5 rows).
+        constraint_matrix: ``A(q)``, the rolling constraints being ``A(q) dq = 0`` (2 x 5).
+        constraint_forces: ``tau(q, lambda) = A^T lambda``, the d'Alembert generalized constraint forces.
+        torque_forces: ``Q_torque = J_omega^T T``, the generalized forces of the input torques.
+        mass_matrix: ``M(q)``, with ``M (lambda, ddq) = b`` (7 x 7).
+        rhs: ``b(q, dq, u)`` (7 rows).
+        multipliers_free: ``lambda`` with zero torque (N; the horizontal ground reaction).
+        multipliers_input: ``d lambda / d u`` (2 x 2).
+        accelerations_free: ``ddq`` with zero torque, ``f(q, dq)`` (5 rows).
+        accelerations_input: ``B(q) = d ddq / d u`` (5 x 2).
+    """
+
+    rotation: sp.Matrix
+    omega_body: sp.Matrix
+    omega_world: sp.Matrix
+    centre: sp.Matrix
+    kinetic_energy: sp.Expr
+    potential_energy: sp.Expr
+    lagrangian: sp.Expr
+    euler_lagrange: sp.Matrix
+    constraint_matrix: sp.Matrix
+    constraint_forces: sp.Matrix
+    torque_forces: sp.Matrix
+    mass_matrix: sp.Matrix
+    rhs: sp.Matrix
+    multipliers_free: sp.Matrix
+    multipliers_input: sp.Matrix
+    accelerations_free: sp.Matrix
+    accelerations_input: sp.Matrix
+
+    @property
+    def multipliers(self) -> sp.Matrix:
+        """``lambda(q, dq, u)``, the contact forces (N)."""
+        return self.multipliers_free + self.multipliers_input * torques
+
+    @property
+    def accelerations(self) -> sp.Matrix:
+        """``ddq(q, dq, u) = f + B u``."""
+        return self.accelerations_free + self.accelerations_input * torques
+
+
+def _simplify(matrix: sp.Matrix) -> sp.Matrix:
+    return matrix.applyfunc(lambda expr: sp.simplify(sp.factor_terms(sp.trigsimp(expr))))
+
+
+@functools.cache
+def derive() -> Derivation:
+    """Runs the whole derivation (a few seconds); the result is cached."""
+    # Section 2.2: orientation and rotation vector.
+    rotation_t = euler_rotation(phi_t, theta_t, psi_t)
+    omega_body_t = sp.simplify(body_angular_velocity(rotation_t))
+    omega_world_t = sp.simplify(rotation_t * omega_body_t)
+
+    # Section 2.3: Lagrangian of a thin uniform disk whose lowest point touches the plane z = 0.
+    centre_t = sp.Matrix([c1_t, c2_t, r * sp.cos(theta_t)])
+    inertia = sp.diag(m * r**2 / 2, m * r**2 / 4, m * r**2 / 4)
+    kinetic_t = m * centre_t.diff(t).dot(centre_t.diff(t)) / 2 + omega_body_t.dot(inertia * omega_body_t) / 2
+    potential_t = m * g * centre_t[2]
+    lagrangian_t = kinetic_t - potential_t
+    dq_t = q_t.diff(t)
+    euler_lagrange_t = sp.Matrix([lagrangian_t]).jacobian(dq_t).diff(t) - sp.Matrix([lagrangian_t]).jacobian(q_t)
+    euler_lagrange = sp.simplify(to_symbols(euler_lagrange_t.T))
+
+    # Section 2.4: non-holonomic rolling constraints A(q) dq = 0 (the contact point has zero velocity).
+    constraint_matrix = sp.Matrix(
+        [
+            [1, 0, -r * sp.sin(psi), -r * sp.cos(psi) * sp.cos(theta), r * sp.sin(psi) * sp.sin(theta)],
+            [0, 1, r * sp.cos(psi), -r * sp.sin(psi) * sp.cos(theta), -r * sp.cos(psi) * sp.sin(theta)],
+        ]
+    )
+
+    # Section 2.5: d'Alembert. Constraint forces do no work on admissible virtual displacements: tau = A^T lambda.
+    constraint_forces = constraint_matrix.T * multipliers
+
+    # Extension: input torques T = tau_spin R e1 + tau_steer e3 (world frame), by virtual power Q = J_omega^T T.
+    omega_world = to_symbols(omega_world_t)
+    rotation = to_symbols(rotation_t)
+    omega_jacobian = omega_world.jacobian(dq)
+    torque_world = tau_spin * rotation[:, 0] + tau_steer * sp.Matrix([0, 0, 1])
+    torque_forces = sp.simplify(omega_jacobian.T * torque_world)
+
+    # Differentiated constraints d/dt (A dq) = 0, stacked on Q - tau - Q_torque = 0: S = M (lambda, ddq) - b.
+    constraint_rate = to_symbols(to_functions(constraint_matrix * dq).diff(t))
+    system = sp.Matrix.vstack(constraint_rate, euler_lagrange - constraint_forces - torque_forces)
+    unknowns = sp.Matrix.vstack(multipliers, ddq)
+    mass_matrix = sp.simplify(system.jacobian(unknowns))
+    rhs = sp.simplify(mass_matrix * unknowns - system)
+
+    # (lambda, ddq) = M^-1 b, split into its torque-free part and its input matrix (b is affine in u).
+    zero_torque = {tau_spin: 0, tau_steer: 0}
+    solution_free = _simplify(mass_matrix.LUsolve(rhs.subs(zero_torque)))
+    solution_input = _simplify(mass_matrix.LUsolve(rhs.jacobian(torques)))
+
+    return Derivation(
+        rotation=rotation,
+        omega_body=to_symbols(omega_body_t),
+        omega_world=omega_world,
+        centre=to_symbols(centre_t),
+        kinetic_energy=sp.simplify(to_symbols(kinetic_t)),
+        potential_energy=to_symbols(potential_t),
+        lagrangian=sp.simplify(to_symbols(lagrangian_t)),
+        euler_lagrange=euler_lagrange,
+        constraint_matrix=constraint_matrix,
+        constraint_forces=constraint_forces,
+        torque_forces=torque_forces,
+        mass_matrix=mass_matrix,
+        rhs=rhs,
+        multipliers_free=solution_free[:2, :],
+        multipliers_input=solution_input[:2, :],
+        accelerations_free=solution_free[2:, :],
+        accelerations_input=solution_input[2:, :],
+    )

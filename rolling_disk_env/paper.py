@@ -1,0 +1,254 @@
+"""The paper reproduced: ``python -m rolling_disk_env.paper [--out DIR]``.
+
+Prints the derived mass matrix M, right-hand side b, contact forces lambda and accelerations ddq; says whether each
+equals the form printed in L. Jaulin, *Modelisation of a rolling disk with Sympy* (transcribed below); and draws the
+paper's two simulations as seen from above, with the disk's rim drawn at a few instants:
+
+* scenario 1, ``x0 = (2, 0, 0, 0.1, 0, 2.5, 0, 0)``, t in [0, 10] s: a slowly falling lean and precession;
+* scenario 2, ``x0 = (2, 0, 0, 0.5, 0, dphi, 0, 1)`` with ``dphi`` from the paper's circle condition, t in [0, 6] s:
+  a steady circle.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from rolling_disk_env import derivation as d
+from rolling_disk_env.dynamics import DEFAULT_PARAMS, steady_circle_spin_rate
+from rolling_disk_env.integrators import simulate
+
+_s, _c = sp.sin, sp.cos
+_th, _ps = d.theta, d.psi
+
+
+def printed_mass_matrix() -> sp.Matrix:
+    """M as printed in the paper (columns: lambda1, lambda2, ddc1, ddc2, ddphi, ddtheta, ddpsi)."""
+    m, r = d.m, d.r
+    return sp.Matrix(
+        [
+            [0, 0, 1, 0, -r * _s(_ps), -r * _c(_th) * _c(_ps), r * _s(_th) * _s(_ps)],
+            [0, 0, 0, 1, r * _c(_ps), -r * _s(_ps) * _c(_th), -r * _s(_th) * _c(_ps)],
+            [-1, 0, m, 0, 0, 0, 0],
+            [0, -1, 0, m, 0, 0, 0],
+            [r * _s(_ps), -r * _c(_ps), 0, 0, m * r**2 / 2, 0, -m * r**2 * _s(_th) / 2],
+            [r * _c(_th) * _c(_ps), r * _s(_ps) * _c(_th), 0, 0, 0, m * r**2 * (_s(_th) ** 2 + sp.Rational(1, 4)), 0],
+            [
+                -r * _s(_th) * _s(_ps),
+                r * _s(_th) * _c(_ps),
+                0,
+                0,
+                -m * r**2 * _s(_th) / 2,
+                0,
+                m * r**2 * (_s(_th) ** 2 + 1) / 4,
+            ],
+        ]
+    )
+
+
+def printed_rhs() -> sp.Matrix:
+    """b as printed in the paper (torque-free)."""
+    m, g, r = d.m, d.g, d.r
+    dph, dth, dps = d.dphi, d.dtheta, d.dpsi
+    return sp.Matrix(
+        [
+            r
+            * (
+                -(dth**2) * _s(_th) * _c(_ps)
+                - 2 * dth * dps * _s(_ps) * _c(_th)
+                + dph * dps * _c(_ps)
+                - dps**2 * _s(_th) * _c(_ps)
+            ),
+            r
+            * (
+                -(dth**2) * _s(_th) * _s(_ps)
+                + 2 * dth * dps * _c(_th) * _c(_ps)
+                + dph * dps * _s(_ps)
+                - dps**2 * _s(_th) * _s(_ps)
+            ),
+            0,
+            0,
+            m * r**2 * dth * dps * _c(_th) / 2,
+            m
+            * r
+            / 8
+            * (8 * g * _s(_th) - 4 * r * dth**2 * _s(2 * _th) - 4 * r * dph * dps * _c(_th) + r * dps**2 * _s(2 * _th)),
+            m * r**2 / 2 * (dph - dps * _s(_th)) * dth * _c(_th),
+        ]
+    )
+
+
+def printed_solution() -> dict[str, sp.Expr]:
+    """The paper's closed forms for lambda1, lambda2, ddc1, ddc2, ddphi, ddtheta, ddpsi (torque-free)."""
+    m, g, r = d.m, d.g, d.r
+    dph, dth, dps = d.dphi, d.dtheta, d.dpsi
+
+    def horizontal(trig, other, sign):
+        return (
+            2 * g * _s(2 * _th) * trig / 5
+            - r * dth**2 * _s(_th) * trig
+            + sign * r / 3 * dth * dps * _c(_th) * other
+            + sp.Rational(6, 5) * r * dph * dps * _s(_th) ** 2 * trig
+            - r / 5 * dph * dps * trig
+            - r * dps**2 * _s(_th) ** 3 * trig
+        )
+
+    lambda1 = (
+        m
+        * (
+            6 * g * _s(2 * _th) * _c(_ps)
+            - 15 * r * dth**2 * _s(_th) * _c(_ps)
+            - 5 * r * dth * dps * _s(_ps) * _c(_th)
+            + 18 * r * dph * dps * _s(_th) ** 2 * _c(_ps)
+            - 3 * r * dph * dps * _c(_ps)
+            - 15 * r * dps**2 * _s(_th) ** 3 * _c(_ps)
+        )
+        / 15
+    )
+    lambda2 = (
+        m
+        * (
+            6 * g * _s(2 * _th) * _s(_ps)
+            - 15 * r * dth**2 * _s(_th) * _s(_ps)
+            + 5 * r * dth * dps * _c(_th) * _c(_ps)
+            + 18 * r * dph * dps * _s(_th) ** 2 * _s(_ps)
+            - 3 * r * dph * dps * _s(_ps)
+            - 15 * r * dps**2 * _s(_th) ** 3 * _s(_ps)
+        )
+        / 15
+    )
+    return {
+        "lambda1": lambda1,
+        "lambda2": lambda2,
+        "ddc1": horizontal(_c(_ps), _s(_ps), -1),
+        "ddc2": horizontal(_s(_ps), _c(_ps), +1),
+        "ddphi": 2 * dph * dth * sp.tan(_th) + sp.Rational(5, 3) * dth * dps * _c(_th),
+        "ddtheta": 4 * g * _s(_th) / (5 * r) - sp.Rational(6, 5) * dph * dps * _c(_th) + dps**2 * _s(2 * _th) / 2,
+        "ddpsi": 2 * dph * dth / _c(_th),
+    }
+
+
+def derived_solution() -> dict[str, sp.Expr]:
+    """The derivation's torque-free lambda and ddq, keyed like :func:`printed_solution`."""
+    derivation = d.derive()
+    values = [*derivation.multipliers_free, *derivation.accelerations_free]
+    return dict(zip(printed_solution(), values))
+
+
+def _equal(a: sp.Expr, b: sp.Expr) -> bool:
+    return sp.simplify(sp.expand_trig(a - b)) == 0
+
+
+def compare() -> dict[str, bool]:
+    """Whether each derived quantity equals the paper's printed form, symbolically."""
+    derivation = d.derive()
+    zero_torque = {d.tau_spin: 0, d.tau_steer: 0}
+    result = {
+        "M": _equal_matrices(derivation.mass_matrix, printed_mass_matrix()),
+        "b": _equal_matrices(derivation.rhs.subs(zero_torque), printed_rhs()),
+    }
+    derived = derived_solution()
+    result.update({name: _equal(derived[name], printed) for name, printed in printed_solution().items()})
+    return result
+
+
+def _equal_matrices(a: sp.Matrix, b: sp.Matrix) -> bool:
+    return a.shape == b.shape and all(_equal(x, y) for x, y in zip(a, b))
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One of the paper's simulations."""
+
+    name: str
+    title: str
+    state0: tuple[float, ...]
+    duration: float
+
+
+def scenarios() -> tuple[Scenario, Scenario]:
+    """The paper's two simulations (section 3), with the default disk."""
+    theta, dpsi = 0.5, 1.0
+    dphi = steady_circle_spin_rate(theta, dpsi, DEFAULT_PARAMS)
+    return (
+        Scenario("scenario1", "Scenario 1: rolling with precession", (2, 0, 0, 0.1, 0, 2.5, 0, 0), 10.0),
+        Scenario("scenario2", "Scenario 2: a steady circle", (2, 0, 0, theta, 0, dphi, 0, dpsi), 6.0),
+    )
+
+
+def rim_points(state: np.ndarray, radius: float, count: int = 64) -> np.ndarray:
+    """Points of the disk's rim in world coordinates, shape (count, 3) (m)."""
+    _, _, phi, theta, psi = state[:5]
+    cp, sp_, ct, st, cs, ss = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi)
+    # Columns 2 and 3 of R = R_psi R_theta R_phi span the disk's plane.
+    e2 = np.array([-cp * ss + st * cs * sp_, cs * cp + st * ss * sp_, ct * sp_])
+    e3 = np.array([ss * sp_ + st * cs * cp, -cs * sp_ + st * cp * ss, ct * cp])
+    angles = np.linspace(0, 2 * np.pi, count)
+    centre = np.array([state[0], state[1], radius * ct])
+    return centre + radius * (np.outer(np.cos(angles), e2) + np.outer(np.sin(angles), e3))
+
+
+def draw(scenario: Scenario, path: Path, dt: float = 0.01) -> Path:
+    """Simulates a scenario with ``"dop853"`` and draws it from above: the centre's track and the disk at a few
+    instants (an ellipse in projection, the first one filled), axes in metres."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    radius = DEFAULT_PARAMS.radius
+    times, states = simulate(np.array(scenario.state0, dtype=float), scenario.duration, dt, method="dop853")
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    ax.plot(states[:, 0], states[:, 1], color="black", lw=1.2, label="centre (c1, c2)")
+    instants = np.linspace(0, len(times) - 1, 9).astype(int)
+    for number, i in enumerate(instants):
+        rim = rim_points(states[i], radius)
+        if number == 0:
+            ax.fill(rim[:, 0], rim[:, 1], color="tab:blue", alpha=0.6, label="disk at t = 0")
+        ax.plot(rim[:, 0], rim[:, 1], color="tab:blue", lw=0.8)
+        ax.annotate(f"{times[i]:.1f} s", (states[i, 0], states[i, 1]), fontsize=7, color="tab:gray")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(alpha=0.3)
+    x0 = ", ".join(f"{v:.3g}" for v in scenario.state0)
+    ax.set_title(f"{scenario.title}\nx0 = ({x0}), t in [0, {scenario.duration:g}] s", fontsize=10)
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Reproduce Jaulin's rolling-disk paper: equations and figures.")
+    parser.add_argument("--out", type=Path, default=Path("paper_figures"), help="folder for the PNGs")
+    args = parser.parse_args(argv)
+
+    derivation = d.derive()
+    zero_torque = {d.tau_spin: 0, d.tau_steer: 0}
+    print("Mass matrix M (unknowns lambda1, lambda2, ddc1, ddc2, ddphi, ddtheta, ddpsi):")
+    sp.pprint(derivation.mass_matrix, wrap_line=False)
+    print("\nRight-hand side b (torque-free):")
+    sp.pprint(derivation.rhs.subs(zero_torque), wrap_line=False)
+    print("\n(lambda, ddq) = M^-1 b, torque-free:")
+    for name, expr in derived_solution().items():
+        print(f"  {name} = {expr}")
+    print("\nInput matrices with u = (tau_spin, tau_steer): d lambda / du and B = d ddq / du:")
+    print(f"  {derivation.multipliers_input.tolist()}")
+    print(f"  {derivation.accelerations_input.tolist()}")
+    print("\nAgainst the paper's printed forms:")
+    for name, same in compare().items():
+        print(f"  {name:8s} {'matches' if same else 'DIFFERS'}")
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    for scenario in scenarios():
+        print(f"wrote {draw(scenario, args.out / f'{scenario.name}.png')}")
+
+
+if __name__ == "__main__":
+    main()
