@@ -3,8 +3,9 @@
 A step function advances one state by ``dt`` seconds: ``step(derivative, x, dt, args) -> x_next``, where
 ``derivative(x, k, h, *args)`` is a :class:`~rolling_disk_env.dynamics.Model`'s equation evaluated at ``x + h k`` and
 ``args = (tau_spin, tau_steer, m, g, r)``, the torques held constant over the step. Each method has a scalar form
-(``x`` a sequence of floats, one disk) and a batched form (``x`` a component-major array of shape (size, N)); both
-do the same arithmetic, so they agree to round-off.
+(``x`` a sequence of floats, one disk; returns a new list) and a batched form
+``step(derivative, x, dt, args, work)`` (``x`` a component-major array of shape (size, N), updated in place, ``work``
+from :func:`workspace`); both do the same arithmetic, so they agree to round-off.
 
 Methods:
 
@@ -62,35 +63,49 @@ def rk4(derivative, x, dt, args):
     return [a + sixth * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
 
 
-def euler_batched(derivative, x, dt, args):
-    """Explicit Euler step (batched, x of shape (size, N))."""
-    return x + dt * derivative(x, x, 0.0, *args, np.empty_like(x))
+def workspace(shape: tuple[int, ...]) -> np.ndarray:
+    """Scratch memory for the batched steps on states of ``shape`` = (size, N): four slopes.
+
+    Reusing it matters: fresh arrays of this size are page-faulted in on every step, which costs more than the
+    arithmetic (measured: 2.8M against 4.7M disk-steps/s for RK4 at N = 4096).
+    """
+    return np.empty((4, *shape))
 
 
-def symplectic_euler_batched(derivative, x, dt, args):
-    """Semi-implicit Euler step (batched)."""
+def euler_batched(derivative, x, dt, args, work):
+    """Explicit Euler step (batched): updates ``x``, of shape (size, N), in place and returns it."""
+    k = derivative(x, x, 0.0, *args, work[0])
+    k *= dt
+    x += k
+    return x
+
+
+def symplectic_euler_batched(derivative, x, dt, args, work):
+    """Semi-implicit Euler step (batched, in place)."""
     split = x.shape[0] - _VELOCITIES
-    k = derivative(x, x, 0.0, *args, np.empty_like(x))
+    k = derivative(x, x, 0.0, *args, work[0])
     k[:split] = 0.0
-    drift = derivative(x, k, dt, *args, np.empty_like(x))
+    drift = derivative(x, k, dt, *args, work[1])
     drift[split:] = k[split:]
-    return x + dt * drift
+    drift *= dt
+    x += drift
+    return x
 
 
-def rk4_batched(derivative, x, dt, args):
-    """Classical Runge-Kutta step (batched)."""
+def rk4_batched(derivative, x, dt, args, work):
+    """Classical Runge-Kutta step (batched, in place)."""
     half = 0.5 * dt
-    k1 = derivative(x, x, 0.0, *args, np.empty_like(x))
-    k2 = derivative(x, k1, half, *args, np.empty_like(x))
-    k3 = derivative(x, k2, half, *args, np.empty_like(x))
-    k4 = derivative(x, k3, dt, *args, np.empty_like(x))
+    k1 = derivative(x, x, 0.0, *args, work[0])
+    k2 = derivative(x, k1, half, *args, work[1])
+    k3 = derivative(x, k2, half, *args, work[2])
+    k4 = derivative(x, k3, dt, *args, work[3])
     k2 += k3
     k2 *= 2.0
     k2 += k1
     k2 += k4
     k2 *= dt / 6.0
-    k2 += x
-    return k2
+    x += k2
+    return x
 
 
 STEPS: dict[str, tuple[Callable, Callable]] = {
@@ -212,11 +227,12 @@ def _simulate_scalar(system: Model, step, x0, times, torque, constants) -> np.nd
 def _simulate_batched(system: Model, step, x0, times, torque, constants) -> np.ndarray:
     states = np.empty((len(times), *x0.shape))
     states[0] = x0
-    x = np.ascontiguousarray(x0.T)
+    x = np.array(x0.T, order="C")
+    work = workspace(x.shape)
     with np.errstate(all="ignore"):
         for i in range(1, len(times)):
             u = torque(times[i - 1], states[i - 1])
-            x = step(system.batched, x, times[i] - times[i - 1], (u[0], u[1], *constants))
+            step(system.batched, x, times[i] - times[i - 1], (u[0], u[1], *constants), work)
             theta = x[system.lean_index]
             if not (np.all(np.abs(theta) < LEAN_LIMIT) and np.all(np.isfinite(x))):
                 raise _domain_error(times[i], theta)
