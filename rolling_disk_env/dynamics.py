@@ -220,3 +220,34 @@ def steady_circle_spin_rate(theta: float, dpsi: float, params: DiskParams | None
     if dpsi == 0:
         raise ValueError("dpsi must be nonzero: a steady circle turns")
     return 2 * p.gravity * math.tan(theta) / (3 * p.radius * dpsi) + 5 * dpsi * math.sin(theta) / 6
+
+
+def steady_circle(radius: float, speed: float, params: DiskParams | None = None) -> tuple[float, float, float]:
+    """The steady circle whose centre path has ``radius`` (m) at ``speed`` (m/s), turning counter-clockwise.
+
+    With theta and the rates constant, the centre moves at ``v = r (dphi - dpsi sin(theta))`` and turns at ``dpsi``,
+    so ``dpsi = v / R``. The paper's circle condition (:func:`steady_circle_spin_rate`) then reads
+    ``v / r + dpsi sin(theta) / 6 = 2 g tan(theta) / (3 r dpsi)``, increasing in theta while ``dpsi^2 < 4 g / r``;
+    it is solved by bisection.
+
+    Returns:
+        ``(theta, dphi, dpsi)``: lean (rad, > 0: leaning into the turn), spin and heading rates (rad/s).
+    """
+    p = params or DEFAULT_PARAMS
+    if not (math.isfinite(radius) and radius > 0 and math.isfinite(speed) and speed > 0):
+        raise ValueError(f"radius and speed must be finite and > 0, got {radius!r} m and {speed!r} m/s")
+    dpsi = speed / radius
+    if dpsi**2 >= 4 * p.gravity / p.radius:
+        raise ValueError(f"no steady circle turns at dpsi = {dpsi:.3g} rad/s >= 2 sqrt(g / r): raise the radius")
+
+    def excess(theta: float) -> float:
+        return 2 * p.gravity * math.tan(theta) / (3 * p.radius * dpsi) - dpsi * math.sin(theta) / 6 - speed / p.radius
+
+    low, high = 0.0, LEAN_LIMIT
+    if excess(high) <= 0:
+        raise ValueError(f"the steady circle of radius {radius} m at {speed} m/s would lean past the model's domain")
+    for _ in range(100):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if excess(middle) < 0 else (low, middle)
+    theta = 0.5 * (low + high)
+    return theta, speed / p.radius + dpsi * math.sin(theta), dpsi

@@ -21,6 +21,7 @@ import sympy as sp
 from rolling_disk_env import derivation as d
 from rolling_disk_env.dynamics import DEFAULT_PARAMS, steady_circle_spin_rate
 from rolling_disk_env.integrators import simulate
+from rolling_disk_env.rendering import rim_points
 
 _s, _c = sp.sin, sp.cos
 _th, _ps = d.theta, d.psi
@@ -178,18 +179,6 @@ def scenarios() -> tuple[Scenario, Scenario]:
         Scenario("scenario1", "Scenario 1: rolling with precession", (2, 0, 0, 0.1, 0, 2.5, 0, 0), 10.0),
         Scenario("scenario2", "Scenario 2: a steady circle", (2, 0, 0, theta, 0, dphi, 0, dpsi), 6.0),
     )
-
-
-def rim_points(state: np.ndarray, radius: float, count: int = 64) -> np.ndarray:
-    """Points of the disk's rim in world coordinates, shape (count, 3) (m)."""
-    _, _, phi, theta, psi = state[:5]
-    cp, sp_, ct, st, cs, ss = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi)
-    # Columns 2 and 3 of R = R_psi R_theta R_phi span the disk's plane.
-    e2 = np.array([-cp * ss + st * cs * sp_, cs * cp + st * ss * sp_, ct * sp_])
-    e3 = np.array([ss * sp_ + st * cs * cp, -cs * sp_ + st * cp * ss, ct * cp])
-    angles = np.linspace(0, 2 * np.pi, count)
-    centre = np.array([state[0], state[1], radius * ct])
-    return centre + radius * (np.outer(np.cos(angles), e2) + np.outer(np.sin(angles), e3))
 
 
 def draw(scenario: Scenario, path: Path, dt: float = 0.01) -> Path:

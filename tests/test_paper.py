@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from rolling_disk_env import paper
+from rolling_disk_env.rendering import rim_points
 from tests import reference
 
 
@@ -25,7 +26,7 @@ def test_scenario2_spin_rate_is_the_papers_circle_condition():
 
 def test_rim_points_lie_on_the_disk_and_touch_the_ground_once():
     state = np.array([1.0, 2.0, 0.4, 0.6, -1.0, 0, 0, 0])
-    rim = paper.rim_points(state, 1.0, count=2001)
+    rim = rim_points(state, 1.0, count=2001)
     centre = reference.centre(state, paper.DEFAULT_PARAMS)
     np.testing.assert_allclose(np.linalg.norm(rim - centre, axis=1), 1.0)
     axis = reference.rotation(*state[2:5])[:, 0]

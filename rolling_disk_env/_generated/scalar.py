@@ -57,23 +57,13 @@ def contact_force(x, tau_spin, tau_steer, m, g, r):
     x0 = sin(psi)
     x1 = 1/r
     x2 = sin(theta)
-    x3 = x0*x2
-    x4 = 10*x1
-    x5 = tau_steer*x4
-    x6 = cos(psi)
-    x7 = r*x6
-    x8 = dpsi*x7
-    x9 = 3*dphi
-    x10 = x2*x6
-    x11 = cos(theta)
-    x12 = 12*g*x11
-    x13 = r*x0
-    x14 = dpsi*x13
-    x15 = 5*dtheta*x11
-    x16 = 15*dtheta**2*r
-    x17 = 18*dphi*x2**2
-    x18 = 15*dpsi**2*x2**3
-    return (-1/15*m*(-x10*x12 + x10*x16 + x14*x15 - x17*x8 + x18*x7 + x8*x9) + (2/3)*tau_spin*x0*x1 - 1/15*x3*x5, (1/15)*m*(x12*x3 - x13*x18 + x14*x17 - x14*x9 + x15*x8 - x16*x3) - 1/15*tau_spin*x4*x6 + (1/15)*x10*x5,)
+    x3 = cos(theta)
+    x4 = dpsi*dtheta*m*r**2*x3 - 2*tau_spin + 2*tau_steer*x2
+    x5 = cos(psi)
+    x6 = dphi*dpsi*r
+    x7 = 5*r
+    x8 = 3*m*(dpsi**2*x2**3*x7 + dtheta**2*x2*x7 - 4*g*x2*x3 - 6*x2**2*x6 + x6)
+    return (-1/3*x0*x1*x4 - 1/15*x5*x8, -1/15*x0*x8 + (1/3)*x1*x4*x5,)
 
 
 def energy(x, m, g, r):

@@ -1,0 +1,151 @@
+"""Keyword arguments of RollingDisk-v0, checked once, and what the single and the vector env share per episode."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+from gymnasium import spaces
+
+from rolling_disk_env.dynamics import DEFAULT_PARAMS, FULL_MODEL, DiskParams, check_states
+from rolling_disk_env.integrators import STEPS
+from rolling_disk_env.tasks import TASKS, Task
+
+ACTUATORS = ("spin", "steer")
+"""Torque inputs, in the order of the dynamics' ``(tau_spin, tau_steer)``."""
+RESET_OPTIONS = frozenset({"state"})
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """The environment's settings (see :class:`rolling_disk_env.envs.RollingDiskEnv` for their meaning)."""
+
+    task: Task
+    actuators: tuple[str, ...]
+    dt: float
+    integrator: str
+    substeps: int
+    max_torque: tuple[float, float]
+    params: DiskParams
+    params_ranges: dict[str, tuple[float, float]]
+    initial_ranges: dict[str, tuple[float, float]]
+
+    @classmethod
+    def from_kwargs(
+        cls,
+        task: str | Task = "upright",
+        actuators: tuple[str, ...] | list[str] = ACTUATORS,
+        dt: float = 0.02,
+        integrator: str = "rk4",
+        substeps: int = 1,
+        max_spin_torque: float = 5.0,
+        max_steer_torque: float = 10.0,
+        params: DiskParams | None = None,
+        params_ranges: dict[str, tuple[float, float]] | None = None,
+        initial_ranges: dict[str, tuple[float, float]] | None = None,
+        task_options: dict | None = None,
+    ) -> EnvConfig:
+        """Checks every argument and raises ``ValueError`` naming the first bad one."""
+        if isinstance(task, Task):
+            if task_options:
+                raise ValueError("task_options apply to a task given by name, not to a Task instance")
+        elif task in TASKS:
+            task = TASKS[task](**(task_options or {}))
+        else:
+            raise ValueError(f"unknown task {task!r}; tasks: {sorted(TASKS)}")
+        if isinstance(actuators, str):
+            raise ValueError(f"actuators must be a tuple of names from {ACTUATORS}, got the string {actuators!r}")
+        actuators = tuple(actuators)
+        unknown = [a for a in actuators if a not in ACTUATORS]
+        if unknown or len(set(actuators)) != len(actuators):
+            raise ValueError(f"actuators must be distinct names from {ACTUATORS}, got {actuators!r}")
+        actuators = tuple(a for a in ACTUATORS if a in actuators)
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be a finite number > 0 (s), got {dt!r}")
+        if integrator not in STEPS:
+            raise ValueError(f"integrator must be a fixed-step method, one of {sorted(STEPS)}, got {integrator!r}")
+        if not (isinstance(substeps, int) and substeps >= 1):
+            raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
+        for name, value in (("max_spin_torque", max_spin_torque), ("max_steer_torque", max_steer_torque)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0 (N m), got {value!r}")
+        params = params or DEFAULT_PARAMS
+        if not isinstance(params, DiskParams):
+            raise ValueError(f"params must be a DiskParams, got {type(params).__name__}")
+        checked_ranges = {}
+        names = [f.name for f in fields(DiskParams)]
+        for key, bounds in (params_ranges or {}).items():
+            if key not in names:
+                raise ValueError(f"unknown key {key!r} in params_ranges; keys: {names}")
+            low, high = (float(b) for b in bounds)
+            if not (math.isfinite(high) and 0 < low <= high):
+                raise ValueError(f"params_ranges[{key!r}] must satisfy 0 < low <= high, got {bounds!r}")
+            checked_ranges[key] = (low, high)
+        return cls(
+            task=task,
+            actuators=actuators,
+            dt=float(dt),
+            integrator=integrator,
+            substeps=substeps,
+            max_torque=(float(max_spin_torque), float(max_steer_torque)),
+            params=params,
+            params_ranges=checked_ranges,
+            initial_ranges=task.initial_ranges(initial_ranges),
+        )
+
+    @property
+    def action_space(self) -> spaces.Box:
+        """One normalized torque per actuator, in [-1, 1]."""
+        return spaces.Box(-1.0, 1.0, shape=(len(self.actuators),), dtype=np.float32)
+
+    @property
+    def observation_space(self) -> spaces.Box:
+        high = self.task.observation_high
+        return spaces.Box(-high, high, dtype=np.float32)
+
+    @property
+    def torque_scale(self) -> np.ndarray:
+        """Matrix mapping a normalized action (n,) to ``(tau_spin, tau_steer)`` in N m, shape (2, n)."""
+        scale = np.zeros((2, len(self.actuators)))
+        for column, name in enumerate(self.actuators):
+            row = ACTUATORS.index(name)
+            scale[row, column] = self.max_torque[row]
+        return scale
+
+    def sample_params(self, rng: np.random.Generator) -> DiskParams:
+        """The episode's disk: ``params`` with each key of ``params_ranges`` drawn uniformly."""
+        if not self.params_ranges:
+            return self.params
+        drawn = {key: float(rng.uniform(low, high)) for key, (low, high) in self.params_ranges.items()}
+        return DiskParams(**{**{f.name: getattr(self.params, f.name) for f in fields(DiskParams)}, **drawn})
+
+    def sample_episode(self, rng: np.random.Generator, options: dict | None) -> tuple[DiskParams, dict, list[float]]:
+        """Draws an episode's disk, goal and initial state; ``options["state"]`` sets the state exactly."""
+        options = options or {}
+        unknown = set(options) - RESET_OPTIONS
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; options: {sorted(RESET_OPTIONS)}")
+        params = self.sample_params(rng)
+        goal = self.task.sample_goal(rng, params)
+        if "state" in options:
+            state = check_states(options["state"], FULL_MODEL.size, name='options["state"]')
+            if state.ndim != 1:
+                raise ValueError(f'options["state"] must have shape (8,), got {state.shape}')
+            if self.task.fallen(state, np):
+                raise ValueError(
+                    f'options["state"] has |theta| = {abs(state[3]):.4g} rad: the disk has already fallen '
+                    f"(fall_lean = {self.task.fall_lean} rad for task {self.task.name!r})"
+                )
+            return params, goal, state.tolist()
+        return params, goal, self.task.initial_state(rng, self.initial_ranges, params, goal)
+
+
+def action_error(action, expected: tuple[int, ...]) -> str | None:
+    """Why ``action`` is not a valid action of shape ``expected``, or None."""
+    array = np.asarray(action)
+    if array.shape != expected:
+        return f"action must have shape {expected}, got {array.shape}"
+    if not np.issubdtype(array.dtype, np.number) or not np.all(np.isfinite(array)):
+        return f"action must be finite numbers, got {array!r}"
+    return None
