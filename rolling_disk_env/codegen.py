@@ -90,12 +90,23 @@ def equations() -> dict[str, tuple[tuple[sp.Symbol, ...], list[sp.Expr], str]]:
     }
 
 
-class _ScalarPrinter(PythonCodePrinter):
+class _PowersAsProducts:
+    """Prints x**2, x**3, x**4 as products: numpy's power is a slow generic loop for exponents other than 2."""
+
+    def _print_Pow(self, expr, rational=False):
+        base, exponent = expr.as_base_exp()
+        if exponent.is_Integer and 2 <= exponent <= 4:
+            factor = self.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"])
+            return "*".join([factor] * int(exponent))
+        return super()._print_Pow(expr, rational=rational)
+
+
+class _ScalarPrinter(_PowersAsProducts, PythonCodePrinter):
     def __init__(self) -> None:
         super().__init__({"fully_qualified_modules": False})
 
 
-class _BatchedPrinter(NumPyPrinter):
+class _BatchedPrinter(_PowersAsProducts, NumPyPrinter):
     def __init__(self) -> None:
         super().__init__({"fully_qualified_modules": False})
 

@@ -228,7 +228,7 @@ def steady_circle(radius: float, speed: float, params: DiskParams | None = None)
     With theta and the rates constant, the centre moves at ``v = r (dphi - dpsi sin(theta))`` and turns at ``dpsi``,
     so ``dpsi = v / R``. The paper's circle condition (:func:`steady_circle_spin_rate`) then reads
     ``v / r + dpsi sin(theta) / 6 = 2 g tan(theta) / (3 r dpsi)``, increasing in theta while ``dpsi^2 < 4 g / r``;
-    it is solved by bisection.
+    it is solved by Newton's method.
 
     Returns:
         ``(theta, dphi, dpsi)``: lean (rad, > 0: leaning into the turn), spin and heading rates (rad/s).
@@ -240,14 +240,15 @@ def steady_circle(radius: float, speed: float, params: DiskParams | None = None)
     if dpsi**2 >= 4 * p.gravity / p.radius:
         raise ValueError(f"no steady circle turns at dpsi = {dpsi:.3g} rad/s >= 2 sqrt(g / r): raise the radius")
 
-    def excess(theta: float) -> float:
-        return 2 * p.gravity * math.tan(theta) / (3 * p.radius * dpsi) - dpsi * math.sin(theta) / 6 - speed / p.radius
-
-    low, high = 0.0, LEAN_LIMIT
-    if excess(high) <= 0:
+    a, b, c = 2 * p.gravity / (3 * p.radius * dpsi), dpsi / 6, speed / p.radius
+    # excess(theta) = a tan(theta) - b sin(theta) - c is increasing and convex on [0, pi/2), so Newton's method
+    # converges monotonically from any point right of the root, such as atan((b + c) / a), where excess >= 0.
+    theta = math.atan((b + c) / a)
+    for _ in range(50):
+        step = (a * math.tan(theta) - b * math.sin(theta) - c) / (a / math.cos(theta) ** 2 - b * math.cos(theta))
+        theta -= step
+        if abs(step) < 1e-15:
+            break
+    if not theta < LEAN_LIMIT:
         raise ValueError(f"the steady circle of radius {radius} m at {speed} m/s would lean past the model's domain")
-    for _ in range(100):
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if excess(middle) < 0 else (low, middle)
-    theta = 0.5 * (low + high)
     return theta, speed / p.radius + dpsi * math.sin(theta), dpsi

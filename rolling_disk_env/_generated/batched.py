@@ -25,7 +25,7 @@ def state_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):
     x3 = dtheta*x2
     x4 = sin(theta)
     x5 = dpsi*x4
-    x6 = 1/(m*r**2)
+    x6 = 1/(m*r*r)
     x7 = 2*x6
     x8 = dpsi*x2
     x9 = dphi/x2
@@ -35,7 +35,7 @@ def state_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):
     out[3] = dtheta
     out[4] = dpsi
     out[5] = (1/3)*dtheta*(6*x4*x9 + 5*x8) + (1/3)*tau_spin*x7 + (10/3)*tau_steer*x4*x6
-    out[6] = -6/5*dphi*x8 + dpsi**2*x2*x4 + (4/5)*g*x4/r
+    out[6] = -6/5*dphi*x8 + dpsi*dpsi*x2*x4 + (4/5)*g*x4/r
     out[7] = 2*dtheta*x9 + 2*tau_steer*x7
     return out
 
@@ -46,7 +46,7 @@ def lean_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):
     dphi = x[1] + h * k[1]
     dtheta = x[2] + h * k[2]
     dpsi = x[3] + h * k[3]
-    x0 = 1/(m*r**2)
+    x0 = 1/(m*r*r)
     x1 = 2*x0
     x2 = sin(theta)
     x3 = cos(theta)
@@ -54,7 +54,7 @@ def lean_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):
     x5 = dphi/x3
     out[0] = dtheta
     out[1] = (1/3)*dtheta*(6*x2*x5 + 5*x4) + (1/3)*tau_spin*x1 + (10/3)*tau_steer*x0*x2
-    out[2] = -6/5*dphi*x4 + dpsi**2*x2*x3 + (4/5)*g*x2/r
+    out[2] = -6/5*dphi*x4 + dpsi*dpsi*x2*x3 + (4/5)*g*x2/r
     out[3] = 2*dtheta*x5 + 2*tau_steer*x1
     return out
 
@@ -70,11 +70,11 @@ def contact_force(x, tau_spin, tau_steer, m, g, r, out):
     x1 = r**(-1.0)
     x2 = sin(theta)
     x3 = cos(theta)
-    x4 = dpsi*dtheta*m*r**2*x3 - 2*tau_spin + 2*tau_steer*x2
+    x4 = dpsi*dtheta*m*r*r*x3 - 2*tau_spin + 2*tau_steer*x2
     x5 = cos(psi)
     x6 = dphi*dpsi*r
     x7 = 5*r
-    x8 = 3*m*(dpsi**2*x2**3*x7 + dtheta**2*x2*x7 - 4*g*x2*x3 - 6*x2**2*x6 + x6)
+    x8 = 3*m*(dpsi*dpsi*x2*x2*x2*x7 + dtheta*dtheta*x2*x7 - 4*g*x2*x3 - 6*x2*x2*x6 + x6)
     out[0] = -1/3*x0*x1*x4 - 1/15*x5*x8
     out[1] = -1/15*x0*x8 + (1/3)*x1*x4*x5
     return out
@@ -86,7 +86,7 @@ def energy(x, m, g, r, out):
     dphi = x[5]
     dtheta = x[6]
     dpsi = x[7]
-    x0 = dpsi**2
+    x0 = dpsi*dpsi
     x1 = sin(theta)
-    out[0] = (1/8)*m*r*(8*g*cos(theta) + r*(6*dphi**2 - 12*dphi*dpsi*x1 + 5*dtheta**2 + 5*x0*x1**2 + x0))
+    out[0] = (1/8)*m*r*(8*g*cos(theta) + r*(6*dphi*dphi - 12*dphi*dpsi*x1 + 5*dtheta*dtheta + 5*x0*x1*x1 + x0))
     return out

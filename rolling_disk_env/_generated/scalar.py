@@ -25,11 +25,11 @@ def state_derivative(x, k, h, tau_spin, tau_steer, m, g, r):
     x3 = dtheta*x2
     x4 = sin(theta)
     x5 = dpsi*x4
-    x6 = 1/(m*r**2)
+    x6 = 1/(m*r*r)
     x7 = 2*x6
     x8 = dpsi*x2
     x9 = dphi/x2
-    return (r*(dphi*x0 - x0*x5 + x1*x3), r*(-dphi*x1 + x0*x3 + x1*x5), dphi, dtheta, dpsi, (1/3)*dtheta*(6*x4*x9 + 5*x8) + (1/3)*tau_spin*x7 + (10/3)*tau_steer*x4*x6, -6/5*dphi*x8 + dpsi**2*x2*x4 + (4/5)*g*x4/r, 2*dtheta*x9 + 2*tau_steer*x7,)
+    return (r*(dphi*x0 - x0*x5 + x1*x3), r*(-dphi*x1 + x0*x3 + x1*x5), dphi, dtheta, dpsi, (1/3)*dtheta*(6*x4*x9 + 5*x8) + (1/3)*tau_spin*x7 + (10/3)*tau_steer*x4*x6, -6/5*dphi*x8 + dpsi*dpsi*x2*x4 + (4/5)*g*x4/r, 2*dtheta*x9 + 2*tau_steer*x7,)
 
 
 def lean_derivative(x, k, h, tau_spin, tau_steer, m, g, r):
@@ -38,13 +38,13 @@ def lean_derivative(x, k, h, tau_spin, tau_steer, m, g, r):
     dphi = x[1] + h * k[1]
     dtheta = x[2] + h * k[2]
     dpsi = x[3] + h * k[3]
-    x0 = 1/(m*r**2)
+    x0 = 1/(m*r*r)
     x1 = 2*x0
     x2 = sin(theta)
     x3 = cos(theta)
     x4 = dpsi*x3
     x5 = dphi/x3
-    return (dtheta, (1/3)*dtheta*(6*x2*x5 + 5*x4) + (1/3)*tau_spin*x1 + (10/3)*tau_steer*x0*x2, -6/5*dphi*x4 + dpsi**2*x2*x3 + (4/5)*g*x2/r, 2*dtheta*x5 + 2*tau_steer*x1,)
+    return (dtheta, (1/3)*dtheta*(6*x2*x5 + 5*x4) + (1/3)*tau_spin*x1 + (10/3)*tau_steer*x0*x2, -6/5*dphi*x4 + dpsi*dpsi*x2*x3 + (4/5)*g*x2/r, 2*dtheta*x5 + 2*tau_steer*x1,)
 
 
 def contact_force(x, tau_spin, tau_steer, m, g, r):
@@ -58,11 +58,11 @@ def contact_force(x, tau_spin, tau_steer, m, g, r):
     x1 = 1/r
     x2 = sin(theta)
     x3 = cos(theta)
-    x4 = dpsi*dtheta*m*r**2*x3 - 2*tau_spin + 2*tau_steer*x2
+    x4 = dpsi*dtheta*m*r*r*x3 - 2*tau_spin + 2*tau_steer*x2
     x5 = cos(psi)
     x6 = dphi*dpsi*r
     x7 = 5*r
-    x8 = 3*m*(dpsi**2*x2**3*x7 + dtheta**2*x2*x7 - 4*g*x2*x3 - 6*x2**2*x6 + x6)
+    x8 = 3*m*(dpsi*dpsi*x2*x2*x2*x7 + dtheta*dtheta*x2*x7 - 4*g*x2*x3 - 6*x2*x2*x6 + x6)
     return (-1/3*x0*x1*x4 - 1/15*x5*x8, -1/15*x0*x8 + (1/3)*x1*x4*x5,)
 
 
@@ -72,6 +72,6 @@ def energy(x, m, g, r):
     dphi = x[5]
     dtheta = x[6]
     dpsi = x[7]
-    x0 = dpsi**2
+    x0 = dpsi*dpsi
     x1 = sin(theta)
-    return ((1/8)*m*r*(8*g*cos(theta) + r*(6*dphi**2 - 12*dphi*dpsi*x1 + 5*dtheta**2 + 5*x0*x1**2 + x0)),)
+    return ((1/8)*m*r*(8*g*cos(theta) + r*(6*dphi*dphi - 12*dphi*dpsi*x1 + 5*dtheta*dtheta + 5*x0*x1*x1 + x0)),)

@@ -12,7 +12,7 @@ from gymnasium.vector.utils import batch_space
 from rolling_disk_env._generated import batched
 from rolling_disk_env.dynamics import FULL_MODEL, LEAN_LIMIT
 from rolling_disk_env.envs.config import EnvConfig, action_error
-from rolling_disk_env.integrators import STEPS, workspace
+from rolling_disk_env.integrators import STEPS, padded_rows, workspace
 
 
 class RollingDiskVectorEnv(VectorEnv):
@@ -58,10 +58,13 @@ class RollingDiskVectorEnv(VectorEnv):
         self._torque_scale = self.config.torque_scale
         self._obs_low, self._obs_high = self.single_observation_space.low, self.single_observation_space.high
         self._rngs = [seeding.np_random()[0] for _ in range(num_envs)]
-        self._x = np.zeros((FULL_MODEL.size, num_envs))
-        self._previous = np.empty_like(self._x)
+        self._x = padded_rows(FULL_MODEL.size, num_envs)
+        self._x[:] = 0.0
+        self._previous = padded_rows(FULL_MODEL.size, num_envs)
         self._work = workspace(self._x.shape)
         self._constants = np.zeros((3, num_envs))
+        # Without per-episode randomization every disk has the same constants: floats cost half as much as rows.
+        self._shared_constants = None if self.config.params_ranges else self.config.params.constants
         self._goal: dict[str, np.ndarray] = {}
         self._torques = np.zeros((2, num_envs))
         self._elapsed = np.zeros(num_envs, dtype=np.int64)
@@ -81,21 +84,25 @@ class RollingDiskVectorEnv(VectorEnv):
             states = np.asarray(states, dtype=np.float64)
             if states.shape != (self.num_envs, FULL_MODEL.size):
                 raise ValueError(f'options["state"] must have shape ({self.num_envs}, 8), got {states.shape}')
-        for i in range(self.num_envs):
-            self._start_episode(i, {**options, **({} if states is None else {"state": states[i]})})
+        per_env = [{**options, **({} if states is None else {"state": states[i]})} for i in range(self.num_envs)]
+        self._start_episodes(self._index, per_env)
         self._autoreset[:] = False
         self._torques[:] = 0.0
         terms = {}
         return self._observations(), self._infos(terms, np.zeros(self.num_envs, dtype=bool), None)
 
-    def _start_episode(self, i: int, options: dict) -> None:
-        params, goal, state = self.config.sample_episode(self._rngs[i], options)
-        self._x[:, i] = state
-        self._constants[:, i] = params.constants
-        for key, value in goal.items():
-            self._goal.setdefault(key, np.zeros(self.num_envs))[i] = value
-        self._elapsed[i] = 0
-        self._error_sums[i, 0] = 0.0
+    def _start_episodes(self, indices: np.ndarray, options: list[dict] | None = None) -> None:
+        """Draws new episodes for the sub-environments ``indices``, each from its own generator."""
+        episodes = [
+            self.config.sample_episode(self._rngs[i], None if options is None else options[n])
+            for n, i in enumerate(indices.tolist())
+        ]
+        self._x[:, indices] = np.array([state for _, _, state in episodes]).T
+        self._constants[:, indices] = np.array([params.constants for params, _, _ in episodes]).T
+        for key in episodes[0][1]:
+            self._goal.setdefault(key, np.zeros(self.num_envs))[indices] = [goal[key] for _, goal, _ in episodes]
+        self._elapsed[indices] = 0
+        self._error_sums[indices, 0] = 0.0
 
     def step(self, actions):
         error = action_error(actions, self.action_space.shape)
@@ -106,7 +113,7 @@ class RollingDiskVectorEnv(VectorEnv):
         effort = np.mean(clipped * clipped, axis=1) if clipped.shape[1] else np.zeros(self.num_envs)
         x = self._x
         np.copyto(self._previous, x)
-        args = (torques[0], torques[1], *self._constants)
+        args = (torques[0], torques[1], *self._disk_constants())
         with np.errstate(all="ignore"):
             for _ in range(self.config.substeps):
                 self._step(FULL_MODEL.batched, x, self._substep, args, self._work)
@@ -116,8 +123,8 @@ class RollingDiskVectorEnv(VectorEnv):
         self._torques = torques
 
         resetting = self._autoreset
-        for i in np.flatnonzero(resetting):
-            self._start_episode(int(i), {})
+        if resetting.any():
+            self._start_episodes(np.flatnonzero(resetting))
         self._torques[:, resetting] = 0.0
         self._elapsed += ~resetting
 
@@ -131,6 +138,10 @@ class RollingDiskVectorEnv(VectorEnv):
         infos = self._infos(terms, terminated, np.where(in_domain, "fallen", "out_of_domain"))
         self._autoreset = terminated | truncated
         return self._observations(), rewards, terminated, truncated, infos
+
+    def _disk_constants(self):
+        """``(m, g, r)``: floats shared by every disk, or rows of shape (N,) with ``params_ranges``."""
+        return self._shared_constants or tuple(self._constants)
 
     def _record_tracking_error(self, resetting: np.ndarray) -> None:
         if self._elapsed.max() >= self._error_sums.shape[1]:
@@ -147,7 +158,7 @@ class RollingDiskVectorEnv(VectorEnv):
 
     def _infos(self, terms: dict, terminated: np.ndarray, reasons: np.ndarray | None) -> dict:
         x = self._x
-        m, g, r = self._constants
+        m, g, r = self._disk_constants()
         if self.task.success_bound is None:
             success = ~terminated
         else:

@@ -73,6 +73,12 @@ class Task(ABC):
             ranges[key] = (low, high)
         return ranges
 
+    @staticmethod
+    def draw(rng: np.random.Generator, ranges: dict[str, tuple[float, float]]) -> dict[str, float]:
+        """One uniform value in each range, from a single call of the generator (an episode's whole draw)."""
+        uniforms = rng.random(len(ranges)).tolist()
+        return {key: low + (high - low) * u for (key, (low, high)), u in zip(ranges.items(), uniforms)}
+
     @property
     def observation_high(self) -> np.ndarray:
         """Upper bounds of the observation (the lower bounds are their negatives), float32."""

@@ -30,7 +30,7 @@ class CircleTask(Task):
 
     Initial state (``initial_ranges``): at ``angle`` (rad) around the circle, ``radial_offset`` (m) off it, heading
     ``heading_error`` (rad) off its tangent; ``theta``, ``dtheta``, ``dpsi`` (rad, rad/s) near zero, ``dphi`` at
-    ``dphi* (1 + dphi_error)``.
+    ``dphi* (1 + dphi_error)``, ``phi`` (rad) anywhere.
 
     Success: not falling (|theta| > ``fall_lean`` = 0.8 rad) and a mean |e_r| over the last half of the episode of
     at most ``success_bound`` = 0.25 m.
@@ -57,6 +57,7 @@ class CircleTask(Task):
         "dtheta": (-0.1, 0.1),
         "dphi_error": (-0.1, 0.1),
         "dpsi": (-0.1, 0.1),
+        "phi": (-math.pi, math.pi),
     }
     fall_lean = 0.8
     success_bound = 0.25
@@ -98,7 +99,8 @@ class CircleTask(Task):
         return bounds.get(name, super().observation_bound(name))
 
     def sample_goal(self, rng, params: DiskParams) -> dict[str, float]:
-        radius = rng.uniform(*self.radius_range)
+        low, high = self.radius_range
+        radius = low + (high - low) * rng.random()
         theta, dphi, dpsi = steady_circle(radius, self.target_speed, params)
         return {
             "radius": radius,
@@ -110,17 +112,13 @@ class CircleTask(Task):
         }
 
     def initial_state(self, rng, ranges, params, goal) -> list[float]:
-        angle, offset, heading, theta, dtheta, dphi_error, dpsi = (
-            rng.uniform(*ranges[key])
-            for key in ("angle", "radial_offset", "heading_error", "theta", "dtheta", "dphi_error", "dpsi")
-        )
-        distance = goal["radius"] + offset
-        c1 = goal["cx"] + distance * math.cos(angle)
-        c2 = goal["cy"] + distance * math.sin(angle)
+        v = self.draw(rng, ranges)
+        distance = goal["radius"] + v["radial_offset"]
+        c1 = goal["cx"] + distance * math.cos(v["angle"])
+        c2 = goal["cy"] + distance * math.sin(v["angle"])
         # Rolling direction (sin psi, -cos psi) along the counter-clockwise tangent (-sin a, cos a): psi = a + pi.
-        psi = math.remainder(angle + math.pi + heading, 2 * math.pi)
-        phi = rng.uniform(-math.pi, math.pi)
-        return [c1, c2, phi, theta, psi, goal["dphi"] * (1 + dphi_error), dtheta, dpsi]
+        psi = math.remainder(v["angle"] + math.pi + v["heading_error"], 2 * math.pi)
+        return [c1, c2, v["phi"], v["theta"], psi, goal["dphi"] * (1 + v["dphi_error"]), v["dtheta"], v["dpsi"]]
 
     def _polar(self, x, goal, xp):
         dx, dy = x[0] - goal["cx"], x[1] - goal["cy"]

@@ -26,8 +26,8 @@ class UprightTask(Task):
         ``alive`` 1 every step; ``lean`` -(theta / fall_lean)^2; ``speed`` -min(((dphi - dphi*) / dphi*)^2, 1);
         ``effort`` minus the mean squared normalized action.
 
-    Initial state: ``c1 = c2 = 0``; ``phi``, ``psi`` uniform in [-pi, pi]; ``theta``, ``dtheta``, ``dphi``,
-    ``dpsi`` uniform in ``initial_ranges`` (rad, rad/s).
+    Initial state: ``c1 = c2 = 0``; ``phi``, ``psi``, ``theta``, ``dtheta``, ``dphi``, ``dpsi`` uniform in
+    ``initial_ranges`` (rad, rad/s; by default phi and psi in [-pi, pi]).
 
     Success: the episode reaches truncation without falling (|theta| > ``fall_lean`` = 0.5 rad).
     """
@@ -37,6 +37,8 @@ class UprightTask(Task):
     observation_names = ("theta", "dtheta", "dphi_error", "dpsi")
     default_reward_weights: ClassVar[dict[str, float]] = {"alive": 1.0, "lean": 1.0, "speed": 0.5, "effort": 0.1}
     default_initial_ranges: ClassVar[dict[str, tuple[float, float]]] = {
+        "phi": (-math.pi, math.pi),
+        "psi": (-math.pi, math.pi),
         "theta": (-0.05, 0.05),
         "dtheta": (-0.1, 0.1),
         "dphi": (0.8, 1.2),
@@ -63,9 +65,8 @@ class UprightTask(Task):
         return {"dphi": self.target_speed / params.radius}
 
     def initial_state(self, rng, ranges, params, goal) -> list[float]:
-        phi, psi = rng.uniform(-math.pi, math.pi, 2)
-        theta, dtheta, dphi, dpsi = (rng.uniform(*ranges[key]) for key in ("theta", "dtheta", "dphi", "dpsi"))
-        return [0.0, 0.0, phi, theta, psi, dphi, dtheta, dpsi]
+        v = self.draw(rng, ranges)
+        return [0.0, 0.0, v["phi"], v["theta"], v["psi"], v["dphi"], v["dtheta"], v["dpsi"]]
 
     def observe(self, x, goal, xp) -> list:
         return [x[3], x[6], x[5] - goal["dphi"], x[7]]
