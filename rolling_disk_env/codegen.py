@@ -58,6 +58,8 @@ def equations() -> dict[str, tuple[tuple[sp.Symbol, ...], list[sp.Expr], str]]:
     centre_velocity = {d.dc1: -velocity[0], d.dc2: -velocity[1]}
     accelerations = list(derivation.accelerations)
     lean = (d.theta, d.dphi, d.dtheta, d.dpsi)
+    lean_rates = sp.Matrix([d.dtheta, *accelerations[2:]])
+    jacobians = [*lean_rates.jacobian(lean), *lean_rates.jacobian(inputs)]
     energy = sp.simplify(derivation.kinetic_energy.subs(centre_velocity) + derivation.potential_energy)
     # The contact force turns with the heading: lambda = R_z(psi) (forward, lateral), the two depending on theta
     # and the rates only. Written so, it costs half the operations.
@@ -77,15 +79,16 @@ def equations() -> dict[str, tuple[tuple[sp.Symbol, ...], list[sp.Expr], str]]:
             [d.dtheta, *accelerations[2:]],
             "dy/dt of the lean model at y = x + h k, y = (theta, dphi, dtheta, dpsi).",
         ),
-        "contact_force": (
-            (*d.state, *inputs, *constants),
-            contact,
-            "(lambda1, lambda2): horizontal ground reaction on the disk along world x and y (N).",
+        "lean_jacobians": (
+            (*lean, *inputs, *constants),
+            [sp.simplify(entry) for entry in jacobians],
+            "The lean model's Jacobians at y, row-major: A = d(dy/dt)/dy (16 entries), then B = d(dy/dt)/du (8).",
         ),
-        "energy": (
-            (*d.state, *constants),
-            [energy],
-            "Kinetic plus potential energy (J), the centre's velocity taken from the rolling constraints.",
+        "diagnostics": (
+            (*d.state, *inputs, *constants),
+            [energy, *contact],
+            "(energy, lambda1, lambda2): kinetic plus potential energy (J), and the horizontal ground reaction on the"
+            "\n    disk along world x and y (N).",
         ),
     }
 

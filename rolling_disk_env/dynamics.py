@@ -189,11 +189,20 @@ def lean_state(state) -> np.ndarray:
     return np.asarray(state, dtype=np.float64)[..., LEAN_INDICES]
 
 
+def _diagnostics(state, torque, params: DiskParams | None) -> tuple[np.ndarray, np.ndarray]:
+    x = check_states(state)
+    batch = None if x.ndim == 1 else x.shape[0]
+    u = check_torques(torque, batch)
+    rows = x.reshape(-1, 8)
+    out = np.empty((3, rows.shape[0]))
+    batched.diagnostics(rows.T, u[0], u[1], *(params or DEFAULT_PARAMS).constants, out)
+    return (out[0, 0], out[1:, 0]) if batch is None else (out[0], out[1:].T)
+
+
 def energy(state, params: DiskParams | None = None) -> float | np.ndarray:
     """Kinetic plus potential energy (J), potential zero at the plane: a float, or shape (N,) for a batch."""
-    x = check_states(state)
-    values = batched.energy(x.T, *(params or DEFAULT_PARAMS).constants, np.empty((1, *x.shape[:-1])))[0]
-    return float(values) if x.ndim == 1 else values
+    value = _diagnostics(state, None, params)[0]
+    return float(value) if np.ndim(value) == 0 else value
 
 
 def contact_force(state, torque=None, params: DiskParams | None = None) -> np.ndarray:
@@ -202,13 +211,7 @@ def contact_force(state, torque=None, params: DiskParams | None = None) -> np.nd
     Returns:
         shape (2,) or (N, 2).
     """
-    x = check_states(state)
-    batch = None if x.ndim == 1 else x.shape[0]
-    u = check_torques(torque, batch)
-    rows = x.reshape(-1, 8)
-    out = np.empty((rows.shape[0], 2))
-    batched.contact_force(rows.T, u[0], u[1], *(params or DEFAULT_PARAMS).constants, out.T)
-    return out.reshape((2,) if batch is None else (batch, 2))
+    return _diagnostics(state, torque, params)[1]
 
 
 def steady_circle_spin_rate(theta: float, dpsi: float, params: DiskParams | None = None) -> float:

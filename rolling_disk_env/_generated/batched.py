@@ -59,34 +59,72 @@ def lean_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):
     return out
 
 
-def contact_force(x, tau_spin, tau_steer, m, g, r, out):
-    """(lambda1, lambda2): horizontal ground reaction on the disk along world x and y (N)."""
+def lean_jacobians(x, tau_spin, tau_steer, m, g, r, out):
+    """The lean model's Jacobians at y, row-major: A = d(dy/dt)/dy (16 entries), then B = d(dy/dt)/du (8)."""
+    theta = x[0]
+    dphi = x[1]
+    dtheta = x[2]
+    dpsi = x[3]
+    x0 = sin(theta)
+    x1 = cos(theta)
+    x2 = x1*x1
+    x3 = 2*dtheta/x2
+    x4 = 1/(m*r*r)
+    x5 = (10/3)*x4
+    x6 = 2/x1
+    x7 = dtheta*x6
+    x8 = (5/3)*x1
+    x9 = dphi*x0
+    out[0] = 0
+    out[1] = 0
+    out[2] = 1
+    out[3] = 0
+    out[4] = dphi*x3 - 5/3*dpsi*dtheta*x0 + tau_steer*x1*x5
+    out[5] = x0*x7
+    out[6] = dpsi*x8 + x6*x9
+    out[7] = dtheta*x8
+    out[8] = (1/5)*(dpsi*r*(5*dpsi*(2*x2 - 1) + 6*x9) + 4*g*x1)/r
+    out[9] = -6/5*dpsi*x1
+    out[10] = 0
+    out[11] = 2*x1*(-3/5*dphi + dpsi*x0)
+    out[12] = x3*x9
+    out[13] = x7
+    out[14] = dphi*x6
+    out[15] = 0
+    out[16] = 0
+    out[17] = 0
+    out[18] = (2/3)*x4
+    out[19] = x0*x5
+    out[20] = 0
+    out[21] = 0
+    out[22] = 0
+    out[23] = 4*x4
+    return out
+
+
+def diagnostics(x, tau_spin, tau_steer, m, g, r, out):
+    """(energy, lambda1, lambda2): kinetic plus potential energy (J), and the horizontal ground reaction on the
+    disk along world x and y (N)."""
     theta = x[3]
     psi = x[4]
     dphi = x[5]
     dtheta = x[6]
     dpsi = x[7]
-    x0 = sin(psi)
-    x1 = r**(-1.0)
-    x2 = sin(theta)
-    x3 = cos(theta)
-    x4 = dpsi*dtheta*m*r*r*x3 - 2*tau_spin + 2*tau_steer*x2
-    x5 = cos(psi)
-    x6 = dphi*dpsi*r
-    x7 = 5*r
-    x8 = 3*m*(dpsi*dpsi*x2*x2*x2*x7 + dtheta*dtheta*x2*x7 - 4*g*x2*x3 - 6*x2*x2*x6 + x6)
-    out[0] = -1/3*x0*x1*x4 - 1/15*x5*x8
-    out[1] = -1/15*x0*x8 + (1/3)*x1*x4*x5
-    return out
-
-
-def energy(x, m, g, r, out):
-    """Kinetic plus potential energy (J), the centre's velocity taken from the rolling constraints."""
-    theta = x[3]
-    dphi = x[5]
-    dtheta = x[6]
-    dpsi = x[7]
-    x0 = dpsi*dpsi
-    x1 = sin(theta)
-    out[0] = (1/8)*m*r*(8*g*cos(theta) + r*(6*dphi*dphi - 12*dphi*dpsi*x1 + 5*dtheta*dtheta + 5*x0*x1*x1 + x0))
+    x0 = cos(theta)
+    x1 = g*x0
+    x2 = dpsi*dpsi
+    x3 = 5*dtheta*dtheta
+    x4 = sin(theta)
+    x5 = dphi*dpsi
+    x6 = x4*x4
+    x7 = 5*x2
+    x8 = sin(psi)
+    x9 = r**(-1.0)
+    x10 = dpsi*dtheta*m*r*r*x0 - 2*tau_spin + 2*tau_steer*x4
+    x11 = cos(psi)
+    x12 = r*x5
+    x13 = 3*m*(r*x3*x4 + r*x4*x4*x4*x7 - 4*x1*x4 - 6*x12*x6 + x12)
+    out[0] = (1/8)*m*r*(r*(6*dphi*dphi + x2 + x3 - 12*x4*x5 + x6*x7) + 8*x1)
+    out[1] = -1/3*x10*x8*x9 - 1/15*x11*x13
+    out[2] = (1/3)*x10*x11*x9 - 1/15*x13*x8
     return out

@@ -123,7 +123,7 @@ class EnvConfig:
     def sample_episode(self, rng: np.random.Generator, options: dict | None) -> tuple[DiskParams, dict, list[float]]:
         """Draws an episode's disk, goal and initial state; ``options["state"]`` sets the state exactly."""
         options = options or {}
-        unknown = set(options) - RESET_OPTIONS
+        unknown = options.keys() - RESET_OPTIONS
         if unknown:
             raise ValueError(f"unknown reset option(s) {sorted(unknown)}; options: {sorted(RESET_OPTIONS)}")
         params = self.sample_params(rng)

@@ -218,10 +218,11 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             half = steps // 2
             mean_error = (self._error_sums[-1] - self._error_sums[half]) / max(1, steps - half)
             success = not terminated and mean_error <= self.task.success_bound
+        energy, *contact_force = scalar.diagnostics(x, *self._torque, *self._constants)
         return {
             "state": np.array(x),
-            "energy": scalar.energy(x, *self._constants)[0],
-            "contact_force": np.array(scalar.contact_force(x, *self._torque, *self._constants)),
+            "energy": energy,
+            "contact_force": np.array(contact_force),
             "rewards": terms,
             "is_success": success,
         }

@@ -98,7 +98,8 @@ class RollingDiskVectorEnv(VectorEnv):
             for n, i in enumerate(indices.tolist())
         ]
         self._x[:, indices] = np.array([state for _, _, state in episodes]).T
-        self._constants[:, indices] = np.array([params.constants for params, _, _ in episodes]).T
+        if self._shared_constants is None:
+            self._constants[:, indices] = np.array([params.constants for params, _, _ in episodes]).T
         for key in episodes[0][1]:
             self._goal.setdefault(key, np.zeros(self.num_envs))[indices] = [goal[key] for _, goal, _ in episodes]
         self._elapsed[indices] = 0
@@ -110,7 +111,7 @@ class RollingDiskVectorEnv(VectorEnv):
             raise ValueError(error.replace("action", "actions", 1))
         clipped = np.clip(np.asarray(actions, dtype=np.float64), -1.0, 1.0)
         torques = self._torque_scale @ clipped.T
-        effort = np.mean(clipped * clipped, axis=1) if clipped.shape[1] else np.zeros(self.num_envs)
+        effort = np.einsum("ij,ij->i", clipped, clipped) / max(1, clipped.shape[1])
         x = self._x
         np.copyto(self._previous, x)
         args = (torques[0], torques[1], *self._disk_constants())
@@ -166,10 +167,11 @@ class RollingDiskVectorEnv(VectorEnv):
             totals = self._error_sums[self._index, self._elapsed] - self._error_sums[self._index, half]
             mean_error = totals / np.maximum(1, self._elapsed - half)
             success = ~terminated & (mean_error <= self.task.success_bound)
+        diagnostics = batched.diagnostics(x, *self._torques, m, g, r, np.empty((3, self.num_envs)))
         infos = {
             "state": x.T.copy(),
-            "energy": batched.energy(x, m, g, r, np.empty((1, self.num_envs)))[0],
-            "contact_force": batched.contact_force(x, *self._torques, m, g, r, np.empty((2, self.num_envs))).T,
+            "energy": diagnostics[0],
+            "contact_force": diagnostics[1:].T.copy(),
             "rewards": {name: np.broadcast_to(value, (self.num_envs,)).copy() for name, value in terms.items()},
             "is_success": success,
         }

@@ -1,0 +1,130 @@
+"""Classical controllers for RollingDisk-v0, with the interface of a trained SB3 policy (``predict(obs)``).
+
+* :class:`UprightLQR`: a discrete LQR on the lean model linearized about upright rolling at the task's target spin
+  rate, from the SymPy Jacobians of f and B (``rolling_disk_env/_generated``, ``lean_jacobians``).
+* :class:`CircleLQR`: the paper's steady circle as the operating point (feedforward: lean, spin and heading rates
+  from the circle condition, zero torque) plus LQR feedback on the lean error and the radial and heading errors.
+
+Both take the same observation and give the same normalized action in [-1, 1] as a policy, so the same evaluation
+code runs every agent.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg import expm, solve_discrete_are
+
+from rolling_disk_env._generated import scalar
+from rolling_disk_env.dynamics import DiskParams, steady_circle
+from rolling_disk_env.envs.config import ACTUATORS, EnvConfig
+
+
+def lean_linearization(lean_state, params: DiskParams) -> tuple[np.ndarray, np.ndarray]:
+    """``A`` (4 x 4) and ``B`` (4 x 2) of the lean model ``y = (theta, dphi, dtheta, dpsi)`` at ``lean_state``, zero
+    torque; ``B``'s columns are ``(tau_spin, tau_steer)`` in N m."""
+    entries = scalar.lean_jacobians(list(lean_state), 0.0, 0.0, *params.constants)
+    return np.array(entries[:16], dtype=float).reshape(4, 4), np.array(entries[16:], dtype=float).reshape(4, 2)
+
+
+def discrete_lqr(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray, dt: float) -> np.ndarray:
+    """The gain ``K`` (u = -K x) of the infinite-horizon LQR of ``dx/dt = A x + B u`` held constant over ``dt``."""
+    n, m = b.shape
+    block = np.zeros((n + m, n + m))
+    block[:n, :n], block[:n, n:] = a, b
+    discrete = expm(block * dt)
+    ad, bd = discrete[:n, :n], discrete[:n, n:]
+    p = solve_discrete_are(ad, bd, q, r)
+    return np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad)
+
+
+class _Controller:
+    """What the controllers share: the env's settings and SB3's ``predict``."""
+
+    def __init__(self, **env_kwargs):
+        self.config = EnvConfig.from_kwargs(**env_kwargs)
+        missing = set(ACTUATORS) - set(self.config.actuators)
+        if missing:
+            raise ValueError(f"{type(self).__name__} needs both actuators, missing {sorted(missing)}")
+        self.params = self.config.params
+        self.torque_limits = np.array(self.config.max_torque)
+
+    def action(self, observation: np.ndarray) -> np.ndarray:
+        """Normalized action (spin, steer) in [-1, 1] for one observation."""
+        raise NotImplementedError
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
+        """SB3's signature: one observation or a batch, returns ``(actions, None)``."""
+        observation = np.asarray(observation, dtype=np.float64)
+        if observation.ndim == 1:
+            return self.action(observation).astype(np.float32), None
+        return np.array([self.action(o) for o in observation], dtype=np.float32), None
+
+
+class UprightLQR(_Controller):
+    """LQR about upright rolling at ``dphi*``: error ``(theta, dphi - dphi*, dtheta, dpsi)``, from the observation
+    ``(theta, dtheta, dphi - dphi*, dpsi)``; weights by Bryson's rule on the given scales."""
+
+    def __init__(self, lean_scale=0.05, spin_scale=0.5, rate_scale=0.5, heading_scale=0.5, **env_kwargs):
+        super().__init__(**env_kwargs)
+        if self.config.task.name != "upright":
+            raise ValueError("UprightLQR is for task='upright'")
+        dphi = self.config.task.sample_goal(None, self.params)["dphi"]
+        a, b = lean_linearization((0.0, dphi, 0.0, 0.0), self.params)
+        q = np.diag(1 / np.array([lean_scale, spin_scale, rate_scale, heading_scale]) ** 2)
+        self.gain = discrete_lqr(a, b * self.torque_limits, q, np.eye(2), self.config.dt)
+
+    def action(self, observation):
+        theta, dtheta, dphi_error, dpsi = observation
+        return np.clip(-self.gain @ np.array([theta, dphi_error, dtheta, dpsi]), -1.0, 1.0)
+
+
+class CircleLQR(_Controller):
+    """Steady circle plus LQR feedback.
+
+    Error state ``(e_r, delta, theta - theta*, dphi - dphi*, dtheta, dpsi - dpsi*)``, e_r the radial error and delta
+    the heading error to the tangent. Linearized, ``de_r/dt = -v delta`` (the disk rolls along the tangent turned
+    by delta) and ``d delta/dt = (dpsi - dpsi*) + dpsi* e_r / R`` (a wider circle turns slower); the lean rows are
+    the lean model's Jacobians at the steady circle. The gain is designed for the circle of the episode, which the
+    observation gives through theta*; gains are cached by radius.
+    """
+
+    def __init__(
+        self, radial_scale=0.3, heading_scale=0.3, lean_scale=0.1, spin_scale=1.0, rate_scale=1.0, **env_kwargs
+    ):
+        super().__init__(**env_kwargs)
+        task = self.config.task
+        if task.name != "circle":
+            raise ValueError("CircleLQR is for task='circle'")
+        self.speed = task.target_speed
+        self.q = np.diag(
+            1 / np.array([radial_scale, heading_scale, lean_scale, spin_scale, rate_scale, rate_scale]) ** 2
+        )
+        low, high = task.radius_range
+        self.radii = np.linspace(low, high, 31)
+        self.leans = np.array([steady_circle(radius, self.speed, self.params)[0] for radius in self.radii])
+        self.gains = {}
+
+    def _gain(self, radius: float) -> np.ndarray:
+        key = round(radius, 3)
+        if key not in self.gains:
+            theta, dphi, dpsi = steady_circle(radius, self.speed, self.params)
+            a_lean, b_lean = lean_linearization((theta, dphi, 0.0, dpsi), self.params)
+            a = np.zeros((6, 6))
+            b = np.zeros((6, 2))
+            a[0, 1] = -self.speed
+            a[1, 5], a[1, 0] = 1.0, dpsi / radius
+            a[2:, 2:], b[2:] = a_lean, b_lean
+            self.gains[key] = discrete_lqr(a, b * self.torque_limits, self.q, np.eye(2), self.config.dt)
+        return self.gains[key]
+
+    def action(self, observation):
+        radial, sin_delta, cos_delta, theta_error, dtheta, dphi_error, dpsi_error, target_lean = observation
+        radius = float(np.interp(target_lean, self.leans, self.radii))
+        error = np.array([radial, math.atan2(sin_delta, cos_delta), theta_error, dphi_error, dtheta, dpsi_error])
+        return np.clip(-self._gain(radius) @ error, -1.0, 1.0)
+
+
+BASELINES = {"upright": UprightLQR, "circle": CircleLQR}
+"""The classical baseline of each task."""
