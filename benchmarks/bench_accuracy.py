@@ -69,7 +69,7 @@ def run(x0, duration, method, step, repeats):
 
         def counting(t, x):
             count[0] += 1
-            return np.zeros(x.shape[:-1] + (2,))
+            return np.zeros((*x.shape[:-1], 2))
 
         rd.simulate(x0, duration, dt, method=method, torque=counting, **kwargs)
         evaluations = count[0]
