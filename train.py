@@ -16,6 +16,7 @@ import argparse
 import shlex
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import torch
@@ -24,6 +25,7 @@ from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.callbacks import EvalCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+from tqdm import TqdmExperimentalWarning
 
 import rolling_disk_env as rd
 from agents.baselines import BASELINES
@@ -87,6 +89,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> dict:
     args = parse_args(argv)
+    # SB3's progress bar uses tqdm's rich front end, which warns on every run that it is experimental.
+    warnings.filterwarnings("ignore", category=TqdmExperimentalWarning)
     torch.set_num_threads(args.threads)
     out = args.out or Path("runs") / f"{args.task}_{args.algo}_{args.seed}"
     out.mkdir(parents=True, exist_ok=True)

@@ -143,6 +143,7 @@ def chart(curves) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     names = list(dict.fromkeys(name for name, _ in curves))
     fig, axes = plt.subplots(len(names), 3, figsize=(13, 3.6 * len(names)), squeeze=False)
@@ -169,6 +170,7 @@ def chart(curves) -> None:
                                 ms=14,
                                 label="env default (rk4, dt 0.02 s)",
                             )
+            ax.xaxis.set_minor_formatter(NullFormatter())
             ax.set_xlabel("wall time per simulated second (ms)")
             ax.set_ylabel(label)
             ax.set_title(name, fontsize=9)

@@ -59,7 +59,7 @@ def vector_throughput(env_id: str, sizes, steps: int, repeats: int) -> list[floa
         env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
         env.action_space.seed(0)
         env.reset(seed=0)
-        count = max(5, steps // n)
+        count = min(max(20, steps // n), 2000)
         actions = [env.action_space.sample() for _ in range(count)]
         samples = []
         for _ in range(repeats):
@@ -105,7 +105,7 @@ def main() -> None:
         [name, f"{seconds * 1e6:.2f}", f"{seconds / acrobot:.2f}", f"{seconds / cartpole:.2f}"]
         for name, seconds in times.items()
     ]
-    vector_steps = 200_000 if args.quick else 2_000_000
+    vector_steps = 100_000 if args.quick else 1_000_000
     ours = vector_throughput(rd.ENV_ID, sizes, vector_steps, repeats)
     theirs = vector_throughput("CartPole-v1", sizes, vector_steps, repeats)
     chart(sizes, ours, theirs, RESULTS / "env_throughput.png")

@@ -61,3 +61,12 @@ def test_tiny_training_run_writes_a_model_that_loads_and_evaluates(tmp_path):
     evaluate_main(["--model", str(tmp_path / "model.zip"), "--episodes", "2", "--out", str(tmp_path / "eval")])
     assert (tmp_path / "eval" / "episode.gif").stat().st_size > 10_000
     assert (tmp_path / "eval" / "episode.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_off_policy_algorithms_train_from_their_configs(tmp_path, algo):
+    import train
+
+    train.main(["--algo", algo, "--timesteps", "300", "--out", str(tmp_path), "--eval-episodes", "2"])
+    assert (tmp_path / "model.zip").exists()
+    assert np.isfinite(evaluate(load_agent(tmp_path / "model.zip"), algo, episodes=2).returns).all()

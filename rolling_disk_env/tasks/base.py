@@ -110,6 +110,11 @@ class Task(ABC):
         """The error whose mean over the last half of an episode decides success (with ``success_bound``)."""
         raise NotImplementedError(f"task {self.name!r} has no tracking error")
 
+    @staticmethod
+    def penalty(error, xp):
+        """The bounded penalty ``-min(error^2, 1)`` of a normalized error (float or array)."""
+        return -xp.minimum(error * error, 1.0)
+
     def reward(self, terms: dict):
         """The weighted sum of the terms."""
         total = 0.0

@@ -142,12 +142,10 @@ class CircleTask(Task):
         ]
 
     def reward_terms(self, x, effort, goal, xp) -> dict:
-        radial = self._polar(x, goal, xp)[2] - goal["radius"]
-        speed = (x[5] - goal["dphi"]) / goal["dphi"]
         return {
             "alive": 1.0,
-            "radial": -xp.minimum(radial * radial, 1.0),
-            "speed": -xp.minimum(speed * speed, 1.0),
+            "radial": self.penalty(self._polar(x, goal, xp)[2] - goal["radius"], xp),
+            "speed": self.penalty((x[5] - goal["dphi"]) / goal["dphi"], xp),
             "effort": -effort,
         }
 

@@ -72,11 +72,9 @@ class UprightTask(Task):
         return [x[3], x[6], x[5] - goal["dphi"], x[7]]
 
     def reward_terms(self, x, effort, goal, xp) -> dict:
-        lean = x[3] / self.fall_lean
-        speed = (x[5] - goal["dphi"]) / goal["dphi"]
         return {
             "alive": 1.0,
-            "lean": -xp.minimum(lean * lean, 1.0),
-            "speed": -xp.minimum(speed * speed, 1.0),
+            "lean": self.penalty(x[3] / self.fall_lean, xp),
+            "speed": self.penalty((x[5] - goal["dphi"]) / goal["dphi"], xp),
             "effort": -effort,
         }
