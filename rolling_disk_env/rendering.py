@@ -112,7 +112,7 @@ class DiskRenderer:
         surface.fill(BACKGROUND)
         camera = self._camera(state, params, goal)
 
-        self._draw_grid(camera, state, params)
+        self._draw_grid(camera)
         if "radius" in goal:
             angles = np.linspace(0, 2 * math.pi, 96)
             circle = np.stack(
@@ -169,7 +169,7 @@ class DiskRenderer:
             return None
         return np.transpose(np.array(pygame.surfarray.pixels3d(surface)), axes=(1, 0, 2))
 
-    def _draw_grid(self, camera: Camera, state, params: DiskParams) -> None:
+    def _draw_grid(self, camera: Camera) -> None:
         span = 12
         ox, oy = math.floor(camera.target[0]), math.floor(camera.target[1])
         for k in range(-span, span + 1):

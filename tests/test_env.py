@@ -135,6 +135,7 @@ def test_torques_follow_the_actions_and_are_clipped():
         (np.zeros((1, 2), dtype=np.float32), "shape"),
         ([0.0], "shape"),
         ("left", "shape"),
+        (np.array(["a", "b"]), "finite numbers"),
     ],
 )
 def test_bad_actions_raise_value_errors(action, message):

@@ -109,8 +109,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     | `params` | DiskParams | `DiskParams()` | mass 5 kg, radius 1 m, gravity 9.81 m/s^2 |
     | `params_ranges` | dict | `None` | per-episode uniform ranges, e.g. `{"mass": (4, 6), "radius": (0.8, 1.2)}` |
     | `initial_ranges` | dict | `None` | overrides of the task's initial-state ranges (keys per task) |
-    | `task_options` | dict | `None` | task arguments (see the task classes): `target_speed`, `reward_weights`, \
-    `fall_lean`; for `circle` also `radius_range` and `centre` |
+    | `task_options` | dict | `None` | the task's arguments (`target_speed`, `reward_weights`, `fall_lean`, ...) |
     | `render_mode` | str | `None` | `"human"` or `"rgb_array"` |
 
     ## Version History
@@ -186,7 +185,8 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     def _torques(self, action) -> tuple[tuple[float, float], float]:
         """Checks the action and clips it to [-1, 1]; returns (tau_spin, tau_steer) in N m and the effort term,
         the mean squared clipped action. Plain floats: this runs every step."""
-        if not (type(action) is np.ndarray and action.shape == self.action_space.shape):
+        fast = type(action) is np.ndarray and action.dtype.kind in "fi" and action.shape == self.action_space.shape
+        if not fast:
             error = action_error(action, self.action_space.shape)
             if error:
                 raise ValueError(error)

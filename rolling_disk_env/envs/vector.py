@@ -136,7 +136,7 @@ class RollingDiskVectorEnv(VectorEnv):
         truncated = (self._elapsed >= limit) & ~resetting if limit is not None else np.zeros(self.num_envs, bool)
         if self.task.success_bound is not None:
             self._record_tracking_error(resetting)
-        infos = self._infos(terms, terminated, np.where(in_domain, "fallen", "out_of_domain"))
+        infos = self._infos(terms, terminated, in_domain)
         self._autoreset = terminated | truncated
         return self._observations(), rewards, terminated, truncated, infos
 
@@ -157,7 +157,7 @@ class RollingDiskVectorEnv(VectorEnv):
         observation = np.stack(np.broadcast_arrays(*components), axis=1).astype(np.float32)
         return np.clip(observation, self._obs_low, self._obs_high, out=observation)
 
-    def _infos(self, terms: dict, terminated: np.ndarray, reasons: np.ndarray | None) -> dict:
+    def _infos(self, terms: dict, terminated: np.ndarray, in_domain: np.ndarray | None) -> dict:
         x = self._x
         m, g, r = self._disk_constants()
         if self.task.success_bound is None:
@@ -175,7 +175,8 @@ class RollingDiskVectorEnv(VectorEnv):
             "rewards": {name: np.broadcast_to(value, (self.num_envs,)).copy() for name, value in terms.items()},
             "is_success": success,
         }
-        if reasons is not None and terminated.any():
-            infos["termination"] = np.where(terminated, reasons, None).astype(object)
+        if in_domain is not None and terminated.any():
+            reasons = np.where(in_domain, "fallen", "out_of_domain").astype(object)
+            infos["termination"] = np.where(terminated, reasons, None)
             infos["_termination"] = terminated.copy()
         return infos
