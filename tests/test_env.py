@@ -31,7 +31,7 @@ def test_gymnasium_checker_passes_with_warnings_as_errors(task, actuators):
 
 
 @pytest.mark.parametrize("task", sorted(TASKS))
-@pytest.mark.parametrize("actuators", [a for a in ACTUATOR_SETS if a])
+@pytest.mark.parametrize("actuators", ACTUATOR_SETS)
 def test_stable_baselines3_checker_passes_with_warnings_as_errors(task, actuators):
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
