@@ -1,4 +1,9 @@
-"""Hypothesis: any initial state in the documented ranges and any action sequence keep everything finite."""
+"""Hypothesis: any initial state in the documented ranges and any action sequence keep everything finite.
+
+``FUZZ_EXAMPLES=2000 python -m pytest tests/test_fuzz.py`` searches longer than the suite's 100 examples.
+"""
+
+import os
 
 import gymnasium as gym
 import numpy as np
@@ -8,7 +13,9 @@ from hypothesis import strategies as st
 import rolling_disk_env as rd
 from rolling_disk_env.tasks import TASKS
 
-FUZZ = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+FUZZ = settings(
+    max_examples=int(os.environ.get("FUZZ_EXAMPLES", 100)), deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 
 
 @st.composite
