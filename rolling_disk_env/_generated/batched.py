@@ -9,53 +9,66 @@ Torques: tau_spin about the disk's axis R e1 and tau_steer about the vertical +z
 Constants: m (kg), g (m/s^2), r (m).
 """
 
-from numpy import cos, sin
+from numpy import cos, sin, sqrt
 
 
 def state_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):
     """dx/dt of the full model at the state x + h k (h = 0: at x; k, h: a Runge-Kutta stage)."""
-    theta = x[3] + h * k[3]
-    psi = x[4] + h * k[4]
-    dphi = x[5] + h * k[5]
-    dtheta = x[6] + h * k[6]
-    dpsi = x[7] + h * k[7]
+    if h:
+        theta = x[3] + h * k[3]
+        psi = x[4] + h * k[4]
+        dphi = x[5] + h * k[5]
+        dtheta = x[6] + h * k[6]
+        dpsi = x[7] + h * k[7]
+    else:
+        theta = x[3]
+        psi = x[4]
+        dphi = x[5]
+        dtheta = x[6]
+        dpsi = x[7]
+    sin_theta = sin(theta)
+    cos_theta = sqrt((1 - sin_theta) * (1 + sin_theta))
     x0 = sin(psi)
     x1 = cos(psi)
-    x2 = cos(theta)
-    x3 = dtheta*x2
-    x4 = sin(theta)
-    x5 = dpsi*x4
-    x6 = 1/(m*r*r)
-    x7 = 2*x6
-    x8 = dpsi*x2
-    x9 = dphi/x2
-    out[0] = r*(dphi*x0 - x0*x5 + x1*x3)
-    out[1] = r*(-dphi*x1 + x0*x3 + x1*x5)
+    x2 = cos_theta*dtheta
+    x3 = dpsi*sin_theta
+    x4 = 1/(m*r*r)
+    x5 = 2*x4
+    x6 = cos_theta*dpsi
+    x7 = dphi/cos_theta
+    out[0] = r*(dphi*x0 - x0*x3 + x1*x2)
+    out[1] = r*(-dphi*x1 + x0*x2 + x1*x3)
     out[2] = dphi
     out[3] = dtheta
     out[4] = dpsi
-    out[5] = (1/3)*dtheta*(6*x4*x9 + 5*x8) + (1/3)*tau_spin*x7 + (10/3)*tau_steer*x4*x6
-    out[6] = -6/5*dphi*x8 + dpsi*dpsi*x2*x4 + (4/5)*g*x4/r
-    out[7] = 2*dtheta*x9 + 2*tau_steer*x7
+    out[5] = (1/3)*dtheta*(6*sin_theta*x7 + 5*x6) + (10/3)*sin_theta*tau_steer*x4 + (1/3)*tau_spin*x5
+    out[6] = cos_theta*dpsi*dpsi*sin_theta - 6/5*dphi*x6 + (4/5)*g*sin_theta/r
+    out[7] = 2*dtheta*x7 + 2*tau_steer*x5
     return out
 
 
 def lean_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):
     """dy/dt of the lean model at y = x + h k, y = (theta, dphi, dtheta, dpsi)."""
-    theta = x[0] + h * k[0]
-    dphi = x[1] + h * k[1]
-    dtheta = x[2] + h * k[2]
-    dpsi = x[3] + h * k[3]
+    if h:
+        theta = x[0] + h * k[0]
+        dphi = x[1] + h * k[1]
+        dtheta = x[2] + h * k[2]
+        dpsi = x[3] + h * k[3]
+    else:
+        theta = x[0]
+        dphi = x[1]
+        dtheta = x[2]
+        dpsi = x[3]
+    sin_theta = sin(theta)
+    cos_theta = sqrt((1 - sin_theta) * (1 + sin_theta))
     x0 = 1/(m*r*r)
     x1 = 2*x0
-    x2 = sin(theta)
-    x3 = cos(theta)
-    x4 = dpsi*x3
-    x5 = dphi/x3
+    x2 = cos_theta*dpsi
+    x3 = dphi/cos_theta
     out[0] = dtheta
-    out[1] = (1/3)*dtheta*(6*x2*x5 + 5*x4) + (1/3)*tau_spin*x1 + (10/3)*tau_steer*x0*x2
-    out[2] = -6/5*dphi*x4 + dpsi*dpsi*x2*x3 + (4/5)*g*x2/r
-    out[3] = 2*dtheta*x5 + 2*tau_steer*x1
+    out[1] = (1/3)*dtheta*(6*sin_theta*x3 + 5*x2) + (10/3)*sin_theta*tau_steer*x0 + (1/3)*tau_spin*x1
+    out[2] = cos_theta*dpsi*dpsi*sin_theta - 6/5*dphi*x2 + (4/5)*g*sin_theta/r
+    out[3] = 2*dtheta*x3 + 2*tau_steer*x1
     return out
 
 
@@ -65,40 +78,40 @@ def lean_jacobians(x, tau_spin, tau_steer, m, g, r, out):
     dphi = x[1]
     dtheta = x[2]
     dpsi = x[3]
-    x0 = sin(theta)
-    x1 = cos(theta)
-    x2 = x1*x1
-    x3 = 2*dtheta/x2
-    x4 = 1/(m*r*r)
-    x5 = (10/3)*x4
-    x6 = 2/x1
-    x7 = dtheta*x6
-    x8 = (5/3)*x1
-    x9 = dphi*x0
+    sin_theta = sin(theta)
+    cos_theta = sqrt((1 - sin_theta) * (1 + sin_theta))
+    x0 = cos_theta*cos_theta
+    x1 = 2*dtheta/x0
+    x2 = 1/(m*r*r)
+    x3 = (10/3)*x2
+    x4 = 2/cos_theta
+    x5 = dtheta*x4
+    x6 = (5/3)*cos_theta
+    x7 = dphi*sin_theta
     out[0] = 0
     out[1] = 0
     out[2] = 1
     out[3] = 0
-    out[4] = dphi*x3 - 5/3*dpsi*dtheta*x0 + tau_steer*x1*x5
-    out[5] = x0*x7
-    out[6] = dpsi*x8 + x6*x9
-    out[7] = dtheta*x8
-    out[8] = (1/5)*(dpsi*r*(5*dpsi*(2*x2 - 1) + 6*x9) + 4*g*x1)/r
-    out[9] = -6/5*dpsi*x1
+    out[4] = cos_theta*tau_steer*x3 + dphi*x1 - 5/3*dpsi*dtheta*sin_theta
+    out[5] = sin_theta*x5
+    out[6] = dpsi*x6 + x4*x7
+    out[7] = dtheta*x6
+    out[8] = (1/5)*(4*cos_theta*g + dpsi*r*(5*dpsi*(2*x0 - 1) + 6*x7))/r
+    out[9] = -6/5*cos_theta*dpsi
     out[10] = 0
-    out[11] = 2*x1*(-3/5*dphi + dpsi*x0)
-    out[12] = x3*x9
-    out[13] = x7
-    out[14] = dphi*x6
+    out[11] = 2*cos_theta*(-3/5*dphi + dpsi*sin_theta)
+    out[12] = x1*x7
+    out[13] = x5
+    out[14] = dphi*x4
     out[15] = 0
     out[16] = 0
     out[17] = 0
-    out[18] = (2/3)*x4
-    out[19] = x0*x5
+    out[18] = (2/3)*x2
+    out[19] = sin_theta*x3
     out[20] = 0
     out[21] = 0
     out[22] = 0
-    out[23] = 4*x4
+    out[23] = 4*x2
     return out
 
 
@@ -110,21 +123,21 @@ def diagnostics(x, tau_spin, tau_steer, m, g, r, out):
     dphi = x[5]
     dtheta = x[6]
     dpsi = x[7]
-    x0 = cos(theta)
-    x1 = g*x0
-    x2 = dpsi*dpsi
-    x3 = 5*dtheta*dtheta
-    x4 = sin(theta)
-    x5 = dphi*dpsi
-    x6 = x4*x4
-    x7 = 5*x2
-    x8 = sin(psi)
-    x9 = r**(-1.0)
-    x10 = dpsi*dtheta*m*r*r*x0 - 2*tau_spin + 2*tau_steer*x4
-    x11 = cos(psi)
-    x12 = r*x5
-    x13 = 3*m*(r*x3*x4 + r*x4*x4*x4*x7 - 4*x1*x4 - 6*x12*x6 + x12)
-    out[0] = (1/8)*m*r*(r*(6*dphi*dphi + x2 + x3 - 12*x4*x5 + x6*x7) + 8*x1)
-    out[1] = -1/3*x10*x8*x9 - 1/15*x11*x13
-    out[2] = (1/3)*x10*x11*x9 - 1/15*x13*x8
+    sin_theta = sin(theta)
+    cos_theta = sqrt((1 - sin_theta) * (1 + sin_theta))
+    x0 = cos_theta*g
+    x1 = dpsi*dpsi
+    x2 = 5*dtheta*dtheta
+    x3 = dphi*dpsi
+    x4 = sin_theta*sin_theta
+    x5 = 5*x1
+    x6 = sin(psi)
+    x7 = r**(-1.0)
+    x8 = cos_theta*dpsi*dtheta*m*r*r + 2*sin_theta*tau_steer - 2*tau_spin
+    x9 = cos(psi)
+    x10 = r*x3
+    x11 = 3*m*(r*sin_theta*sin_theta*sin_theta*x5 + r*sin_theta*x2 - 4*sin_theta*x0 - 6*x10*x4 + x10)
+    out[0] = (1/8)*m*r*(r*(6*dphi*dphi - 12*sin_theta*x3 + x1 + x2 + x4*x5) + 8*x0)
+    out[1] = -1/15*x11*x9 - 1/3*x6*x7*x8
+    out[2] = -1/15*x11*x6 + (1/3)*x7*x8*x9
     return out

@@ -154,7 +154,9 @@ class RollingDiskVectorEnv(VectorEnv):
 
     def _observations(self) -> np.ndarray:
         components = self.task.observe(self._x, self._goal, np)
-        observation = np.stack(np.broadcast_arrays(*components), axis=1).astype(np.float32)
+        observation = np.empty((self.num_envs, len(components)), dtype=np.float32)
+        for column, component in enumerate(components):
+            observation[:, column] = component
         return np.clip(observation, self._obs_low, self._obs_high, out=observation)
 
     def _infos(self, terms: dict, terminated: np.ndarray, in_domain: np.ndarray | None) -> dict:
@@ -172,11 +174,16 @@ class RollingDiskVectorEnv(VectorEnv):
             "state": x.T.copy(),
             "energy": diagnostics[0],
             "contact_force": diagnostics[1:].T.copy(),
-            "rewards": {name: np.broadcast_to(value, (self.num_envs,)).copy() for name, value in terms.items()},
+            # Terms are fresh arrays each step, or constants such as "alive".
+            "rewards": {
+                name: np.full(self.num_envs, value) if np.ndim(value) == 0 else value for name, value in terms.items()
+            },
             "is_success": success,
         }
         if in_domain is not None and terminated.any():
-            reasons = np.where(in_domain, "fallen", "out_of_domain").astype(object)
-            infos["termination"] = np.where(terminated, reasons, None)
+            reasons = np.full(self.num_envs, None, dtype=object)
+            reasons[terminated] = "fallen"
+            reasons[terminated & ~in_domain] = "out_of_domain"
+            infos["termination"] = reasons
             infos["_termination"] = terminated.copy()
         return infos
