@@ -21,7 +21,6 @@ from pathlib import Path
 
 import torch
 import yaml
-from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.callbacks import EvalCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
@@ -29,10 +28,9 @@ from tqdm import TqdmExperimentalWarning
 
 import rolling_disk_env as rd
 from agents.baselines import BASELINES
-from agents.evaluate import EVAL_SEED, NormalizedPolicy, PassiveAgent, evaluate
+from agents.evaluate import ALGORITHMS, EVAL_SEED, NormalizedPolicy, PassiveAgent, evaluate
 from rolling_disk_env.tasks import TASKS
 
-ALGORITHMS = {"ppo": PPO, "sac": SAC, "td3": TD3}
 ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU}
 HYPERPARAMS = Path(__file__).parent / "agents" / "hyperparams"
 

@@ -15,10 +15,13 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from stable_baselines3 import PPO, SAC, TD3
 
 import rolling_disk_env as rd
 from agents.baselines import BASELINES
 
+ALGORITHMS = {"ppo": PPO, "sac": SAC, "td3": TD3}
+"""The SB3 algorithms train.py offers, by its --algo name."""
 EVAL_SEED = 10_000
 """Evaluation episodes use seeds from here on: training uses others."""
 
@@ -64,13 +67,11 @@ class NormalizedPolicy:
 
 def load_agent(path: Path):
     """A saved model (``.zip``) with ``vecnormalize.pkl`` from its folder, if there is one."""
-    from stable_baselines3 import PPO, SAC, TD3
     from stable_baselines3.common.vec_env import VecNormalize
 
-    algorithms = {"ppo": PPO, "sac": SAC, "td3": TD3}
     run = path.parent
     algo = (run / "algo.txt").read_text().strip() if (run / "algo.txt").exists() else "ppo"
-    model = algorithms[algo].load(path, device="cpu")
+    model = ALGORITHMS[algo].load(path, device="cpu")
     normalize = None
     stats = run / "vecnormalize.pkl"
     if stats.exists():

@@ -42,17 +42,6 @@ MJCF = """
 """
 
 
-def rotation(phi, theta, psi) -> np.ndarray:
-    cf, sf, ct, st, cs, ss = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi)
-    return np.array(
-        [
-            [ct * cs, -cf * ss + st * cs * sf, ss * sf + st * cs * cf],
-            [ct * ss, cs * cf + st * ss * sf, -cs * sf + st * cf * ss],
-            [-st, ct * sf, ct * cf],
-        ]
-    )
-
-
 def body_angular_velocity(x) -> np.ndarray:
     """The paper's omega_r (body frame), what a MuJoCo free joint takes as its angular velocity."""
     _, _, phi, theta, _, dphi, dtheta, dpsi = x
@@ -82,7 +71,7 @@ def simulate_mujoco(x0, duration, timestep, integrator="Euler"):
     )
     data = mujoco.MjData(model)
     quaternion = np.empty(4)
-    mujoco.mju_mat2Quat(quaternion, rotation(*x0[2:5]).ravel())
+    mujoco.mju_mat2Quat(quaternion, rd.dynamics.rotation_matrix(*x0[2:5]).ravel())
     data.qpos[:3] = [x0[0], x0[1], PARAMS.radius * np.cos(x0[3])]
     data.qpos[3:] = quaternion
     centre_velocity = rd.state_derivative(x0)[:2]

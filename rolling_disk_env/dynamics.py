@@ -118,19 +118,20 @@ LEAN_MODEL = Model("lean", LEAN_NAMES, scalar.lean_derivative, batched.lean_deri
 MODELS = {model.name: model for model in (FULL_MODEL, LEAN_MODEL)}
 
 
-def check_states(state, size: int = 8, name: str = "state") -> np.ndarray:
-    """Validates one state (size,) or a batch (N, size): float64, finite, inside the lean domain.
+def check_states(state, model: Model = FULL_MODEL, name: str = "state") -> np.ndarray:
+    """Validates one state (size,) or a batch (N, size) of ``model``: float64, finite, inside the lean domain.
 
     Raises:
         ValueError: wrong shape or non-finite values.
         OutOfDomainError: ``|theta| >= LEAN_LIMIT``.
     """
     array = np.asarray(state, dtype=np.float64)
+    size = model.size
     if array.ndim not in (1, 2) or array.shape[-1] != size:
         raise ValueError(f"{name} must have shape ({size},) or (N, {size}), got {array.shape}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name} must be finite, got {array}")
-    theta = array[..., 3 if size == 8 else 0]
+    theta = array[..., model.lean_index]
     if np.any(np.abs(theta) >= LEAN_LIMIT):
         worst = float(np.max(np.abs(theta)))
         raise OutOfDomainError(
@@ -156,7 +157,7 @@ def check_torques(torque, batch: int | None) -> np.ndarray:
 
 
 def _evaluate(model: Model, state, torque, params: DiskParams | None) -> np.ndarray:
-    x = check_states(state, model.size)
+    x = check_states(state, model)
     batch = None if x.ndim == 1 else x.shape[0]
     u = check_torques(torque, batch)
     rows = x.reshape(-1, model.size)
@@ -212,6 +213,26 @@ def contact_force(state, torque=None, params: DiskParams | None = None) -> np.nd
         shape (2,) or (N, 2).
     """
     return _diagnostics(state, torque, params)[1]
+
+
+def rotation_matrix(phi: float, theta: float, psi: float) -> np.ndarray:
+    """The paper's orientation ``R = R_psi R_theta R_phi`` (body to world), shape (3, 3); ``R e1`` is the disk's
+    axis, ``R e2`` and ``R e3`` span its plane."""
+    cf, sf, ct, st, cs, ss = (
+        math.cos(phi),
+        math.sin(phi),
+        math.cos(theta),
+        math.sin(theta),
+        math.cos(psi),
+        math.sin(psi),
+    )
+    return np.array(
+        [
+            [ct * cs, -cf * ss + st * cs * sf, ss * sf + st * cs * cf],
+            [ct * ss, cs * cf + st * ss * sf, -cs * sf + st * cf * ss],
+            [-st, ct * sf, ct * cf],
+        ]
+    )
 
 
 def steady_circle_spin_rate(theta: float, dpsi: float, params: DiskParams | None = None) -> float:

@@ -221,7 +221,7 @@ def simulate(
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     system = MODELS[model]
-    x0 = check_states(state0, system.size, name="state0")
+    x0 = check_states(state0, system, name="state0")
     times = _output_times(float(duration), float(dt))
     constants = (params or DEFAULT_PARAMS).constants
     batch = None if x0.ndim == 1 else x0.shape[0]

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from gymnasium.error import DependencyNotInstalled
 
-from rolling_disk_env.dynamics import DiskParams
+from rolling_disk_env.dynamics import DiskParams, rotation_matrix
 
 WIDTH, HEIGHT = 600, 400
 FIELD_OF_VIEW = math.radians(50)
@@ -34,20 +34,10 @@ WALL_DISTANCE = 3.0
 
 def rim_points(state, radius: float, count: int = 48) -> np.ndarray:
     """The rim of the disk in world coordinates, shape (count, 3), starting at the spoke (body axis R e2) (m)."""
-    _, _, phi, theta, psi = state[:5]
-    cp, sp, ct, st, cs, ss = (
-        math.cos(phi),
-        math.sin(phi),
-        math.cos(theta),
-        math.sin(theta),
-        math.cos(psi),
-        math.sin(psi),
-    )
-    # Columns 2 and 3 of R = R_psi R_theta R_phi span the disk's plane.
-    e2 = np.array([-cp * ss + st * cs * sp, cs * cp + st * ss * sp, ct * sp])
-    e3 = np.array([ss * sp + st * cs * cp, -cs * sp + st * cp * ss, ct * cp])
+    rotation = rotation_matrix(*state[2:5])
+    e2, e3 = rotation[:, 1], rotation[:, 2]
     angles = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
-    centre = np.array([state[0], state[1], radius * ct])
+    centre = np.array([state[0], state[1], radius * math.cos(state[3])])
     return centre + radius * (np.outer(np.cos(angles), e2) + np.outer(np.sin(angles), e3))
 
 

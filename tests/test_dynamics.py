@@ -174,3 +174,11 @@ def test_batched_path_equals_scalar_path(states):
 def test_bad_input_raises_a_clear_error(call, message):
     with pytest.raises(ValueError, match=message):
         call()
+
+
+def test_rotation_matrix_is_the_papers_r():
+    rng = np.random.default_rng(3)
+    for phi, theta, psi in rng.uniform(-np.pi, np.pi, (20, 3)):
+        rotation = rd.dynamics.rotation_matrix(phi, theta, psi)
+        np.testing.assert_allclose(rotation, reference.rotation(phi, theta, psi), atol=1e-15)
+        np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-15)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from gymnasium import spaces
 
-from rolling_disk_env.dynamics import DEFAULT_PARAMS, FULL_MODEL, DiskParams, check_states
+from rolling_disk_env.dynamics import DEFAULT_PARAMS, DiskParams, check_states
 from rolling_disk_env.integrators import STEPS
 from rolling_disk_env.tasks import TASKS, Task
 
@@ -105,12 +105,20 @@ class EnvConfig:
         return spaces.Box(-high, high, dtype=np.float32)
 
     @property
+    def actuator_rows(self) -> list[int]:
+        """For each action component, its row in ``(tau_spin, tau_steer)``."""
+        return [ACTUATORS.index(name) for name in self.actuators]
+
+    @property
+    def actuator_limits(self) -> list[float]:
+        """For each action component, the torque (N m) of action +1."""
+        return [self.max_torque[row] for row in self.actuator_rows]
+
+    @property
     def torque_scale(self) -> np.ndarray:
         """Matrix mapping a normalized action (n,) to ``(tau_spin, tau_steer)`` in N m, shape (2, n)."""
         scale = np.zeros((2, len(self.actuators)))
-        for column, name in enumerate(self.actuators):
-            row = ACTUATORS.index(name)
-            scale[row, column] = self.max_torque[row]
+        scale[self.actuator_rows, range(len(self.actuators))] = self.actuator_limits
         return scale
 
     def sample_params(self, rng: np.random.Generator) -> DiskParams:
@@ -129,7 +137,7 @@ class EnvConfig:
         params = self.sample_params(rng)
         goal = self.task.sample_goal(rng, params)
         if "state" in options:
-            state = check_states(options["state"], FULL_MODEL.size, name='options["state"]')
+            state = check_states(options["state"], name='options["state"]')
             if state.ndim != 1:
                 raise ValueError(f'options["state"] must have shape (8,), got {state.shape}')
             if self.task.fallen(state, np):

@@ -11,7 +11,7 @@ import numpy as np
 
 from rolling_disk_env._generated import scalar
 from rolling_disk_env.dynamics import FULL_MODEL, LEAN_LIMIT
-from rolling_disk_env.envs.config import ACTUATORS, EnvConfig, action_error
+from rolling_disk_env.envs.config import EnvConfig, action_error
 from rolling_disk_env.integrators import STEPS
 from rolling_disk_env.tasks.base import SCALAR_MATH
 
@@ -133,8 +133,8 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._derivative = FULL_MODEL.scalar
         self._substeps = self.config.substeps
         self._substep = self.config.dt / self.config.substeps
-        self._actuator_rows = [ACTUATORS.index(name) for name in self.config.actuators]
-        self._actuator_limits = [self.config.max_torque[row] for row in self._actuator_rows]
+        self._actuator_rows = self.config.actuator_rows
+        self._actuator_limits = self.config.actuator_limits
         self._obs_bounds = (self.observation_space.low.tolist(), self.observation_space.high.tolist())
         self._renderer = None
         self._state: list[float] | None = None
