@@ -1,7 +1,8 @@
 """Cost of one integration step: the scalar path (one disk) and the batched numpy path (N disks).
 
 ``python benchmarks/bench_dynamics.py`` writes ``benchmarks/results/dynamics.md``. The scalar RK4 step is set
-against a plain-Python floor, the paper's equations hand-written with an unrolled RK4, timed in the same run.
+against a plain-Python floor, the paper's equations hand-written with an RK4 loop, timed in the same run; the
+generated RK4 step with its stages written out (``Model.scalar_rk4``, what the env uses) against the generic one.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ ARGS = (0.0, 0.0, *DEFAULT_PARAMS.constants)
 
 
 def plain_python_rk4(x, dt, g=9.81, r=1.0):
-    """The floor: the paper's state equations typed by hand, RK4 unrolled, no torques."""
+    """The floor: the paper's state equations typed by hand, one RK4 step, no torques."""
 
     def f(c1, c2, phi, th, ps, dph, dth, dps):
         st, ct, sp, cp = math.sin(th), math.cos(th), math.sin(ps), math.cos(ps)
@@ -49,6 +50,15 @@ def scalar_rows() -> list[list[object]]:
         for method, (step, _) in STEPS.items():
             seconds = median_seconds(lambda step=step, model=model, x=x: step(model.scalar, x, DT, ARGS), 20_000)
             rows.append([f"generated, {model.name} model", method, f"{seconds * 1e6:.2f}", f"{seconds / floor:.2f}"])
+        seconds = median_seconds(lambda model=model, x=x: model.scalar_rk4(x, DT, *ARGS), 20_000)
+        rows.append(
+            [
+                f"generated, {model.name} model, stages written out",
+                "rk4",
+                f"{seconds * 1e6:.2f}",
+                f"{seconds / floor:.2f}",
+            ]
+        )
     return rows
 
 

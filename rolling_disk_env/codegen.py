@@ -12,8 +12,9 @@ Two modules are written, with the same functions and argument order:
 Every function takes the disk's constants ``m`` (kg), ``g`` (m/s^2), ``r`` (m) last; in the batched module they may
 be arrays of shape (N,) (one disk per column) or floats. The two derivatives, ``state_derivative`` (full model) and
 ``lean_derivative`` (reduced lean model), are evaluated at the *stage* ``x + h k``: an explicit Runge-Kutta method
-passes its previous slope ``k`` and step ``h`` and the equations read only the components they need (5 of 8), which
-is what makes a pure-Python RK4 step fast; ``h = 0`` evaluates at ``x``. Expressions are rewritten in ``sin`` and
+passes its previous slope ``k`` and step ``h`` and the equations read only the components they need (5 of 8);
+``h = 0`` evaluates at ``x``. The scalar module also holds each model's RK4 step with its four stages written out,
+``state_rk4_step`` and ``lean_rk4_step``, which is what one env step runs. Expressions are rewritten in ``sin`` and
 ``cos`` of theta and psi only and passed through common-subexpression elimination, so one evaluation calls four
 trigonometric functions; the batched module computes cos(theta) as ``sqrt((1 - sin(theta)) (1 + sin(theta)))``
 instead (valid in the model's domain |theta| < pi/2), because numpy's float64 cosine is slow here.
@@ -166,6 +167,63 @@ def _function_source(name: str, arguments, outputs, doc: str, batched: bool) -> 
     return "\n".join(lines) + "\n"
 
 
+_CONSTANTS = frozenset({d.tau_spin, d.tau_steer, d.m, d.g, d.r})
+"""Held fixed over a step: what a Runge-Kutta step can compute once instead of at every stage."""
+
+
+_RK4_MODELS = {"state": "the full model (x, 8 floats)", "lean": "the lean model (y, 4 floats)"}
+
+
+def _rk4_source(name: str, arguments, outputs, doc: str) -> str:
+    """The classical Runge-Kutta step of one model for one disk, its four stages written out.
+
+    It does the arithmetic of ``integrators.rk4`` applied to the model's derivative, in the same order, so the two
+    agree to the last bit (``tests/test_integrators.py`` checks it), and saves the calls, the tuples, the indexing,
+    the slopes that are plain velocities and the repeated subexpressions of the torques and constants. Stage ``s``
+    evaluates the derivative at the state ``{component}_{s}`` and names its slopes ``k{s}_{component}``.
+    """
+    printer = _ScalarPrinter()
+    state = [a for a in arguments if a not in _CONSTANTS]
+    trig = {sp.sin(d.theta): _SIN_THETA, sp.cos(d.theta): _COS_THETA}
+    replacements, reduced = sp.cse([_in_sin_cos(e).subs(trig) for e in outputs], optimizations="basic")
+    once = []
+    for symbol, expr in replacements:
+        if expr.free_symbols <= _CONSTANTS | set(once):
+            once.append(symbol)
+    read = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in replacements)) | {d.theta}
+    lines = [
+        f"def {name}(x, dt, tau_spin, tau_steer, m, g, r):",
+        f'    """{doc}"""',
+        f"    {', '.join(map(str, state))} = x",
+        "    half = 0.5 * dt",
+        *(f"    {symbol} = {printer.doprint(expr)}" for symbol, expr in replacements if symbol in once),
+    ]
+    slopes: list[list[str]] = []
+    for stage, step in enumerate(("", "half", "half", "dt"), start=1):
+        names = {s: sp.Symbol(f"{s}_{stage}") for s in state} if step else {}
+        names |= {t: sp.Symbol(f"{t}_{stage}") for t in (_SIN_THETA, _COS_THETA)}
+        names |= {symbol: sp.Symbol(f"{symbol}_{stage}") for symbol, _ in replacements if symbol not in once}
+        lines.append(f"    # stage {stage}" + (f": at x + {step} k{stage - 1}" if step else ": at x"))
+        if step:
+            lines += [f"    {names[s]} = {s} + {step} * {k}" for s, k in zip(state, slopes[-1]) if s in read]
+        lines.append(f"    {names[_SIN_THETA]} = sin({names.get(d.theta, d.theta)})")
+        lines.append(f"    {names[_COS_THETA]} = cos({names.get(d.theta, d.theta)})")
+        for symbol, expr in replacements:
+            if symbol not in once:
+                lines.append(f"    {names[symbol]} = {printer.doprint(expr.xreplace(names))}")
+        slopes.append([])
+        for component, expr in zip(state, reduced):
+            if expr in state:  # a velocity: the slope is the stage's own value
+                slopes[-1].append(str(names.get(expr, expr)))
+            else:
+                slopes[-1].append(f"k{stage}_{component}")
+                lines.append(f"    {slopes[-1][-1]} = {printer.doprint(expr.xreplace(names))}")
+    lines.append("    sixth = dt / 6.0")
+    combined = [f"{s} + sixth * ({a} + 2.0 * ({b} + {c}) + {e})" for s, a, b, c, e in zip(state, *slopes)]
+    lines += ["    return [", *(f"        {line}," for line in combined), "    ]"]
+    return "\n".join(lines) + "\n"
+
+
 def generate(batched: bool) -> str:
     """Source of ``_generated/batched.py`` (``batched=True``) or ``_generated/scalar.py``."""
     title = (
@@ -174,10 +232,16 @@ def generate(batched: bool) -> str:
         else "Rolling-disk equations for one disk (plain floats and math)."
     )
     imports = "from numpy import cos, sin, sqrt\n" if batched else "from math import cos, sin\n"
+    generated = equations()
     functions = [
         _function_source(name, arguments, outputs, doc, batched)
-        for name, (arguments, outputs, doc) in equations().items()
+        for name, (arguments, outputs, doc) in generated.items()
     ]
+    if not batched:
+        for model in ("state", "lean"):
+            arguments, outputs, _ = generated[f"{model}_derivative"]
+            doc = f"One classical Runge-Kutta step of dt seconds of {_RK4_MODELS[model]}; returns the new state."
+            functions.append(_rk4_source(f"{model}_rk4_step", arguments, outputs, doc))
     return _HEADER.format(title=title) + "\n" + imports + "\n\n" + "\n\n".join(functions)
 
 

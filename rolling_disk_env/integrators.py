@@ -152,6 +152,24 @@ STEPS: dict[str, tuple[Callable, Callable]] = {
 }
 """Fixed-step methods: name -> (scalar step, batched step)."""
 EVALUATIONS_PER_STEP = {"euler": 1, "symplectic_euler": 2, "rk4": 4}
+
+
+def scalar_step(method: str, model: Model) -> Callable:
+    """The fastest step of a fixed-step ``method`` for one disk of ``model``: ``step(x, dt, *args) -> x_next``.
+
+    For ``"rk4"`` that is the model's generated step with its stages written out (``model.scalar_rk4``, the same
+    arithmetic as :func:`rk4`, about 1.6x faster); the other methods call their step function above.
+    """
+    if method == "rk4":
+        return model.scalar_rk4
+    generic, derivative = STEPS[method][0], model.scalar
+
+    def step(x, dt, *args):
+        return generic(derivative, x, dt, args)
+
+    return step
+
+
 METHODS = (*STEPS, "dop853")
 
 
@@ -239,7 +257,7 @@ def simulate(
     if method == "dop853":
         return times, _simulate_adaptive(system, x0, times, torque_at, constants, rtol, atol)
     if x0.ndim == 1:
-        return times, _simulate_scalar(system, STEPS[method][0], x0, times, torque_at, constants)
+        return times, _simulate_scalar(system, scalar_step(method, system), x0, times, torque_at, constants)
     return times, _simulate_batched(system, STEPS[method][1], x0, times, torque_at, constants)
 
 
@@ -251,7 +269,7 @@ def _simulate_scalar(system: Model, step, x0, times, torque, constants) -> np.nd
         u = torque(times[i - 1], states[i - 1])
         args = (float(u[0, 0]), float(u[1, 0]), *constants)
         try:
-            x = step(system.scalar, x, times[i] - times[i - 1], args)
+            x = step(x, times[i] - times[i - 1], *args)
         except (OverflowError, ZeroDivisionError):
             raise _domain_error(times[i], math.nan) from None
         theta = x[system.lean_index]

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import rolling_disk_env as rd
-from rolling_disk_env.integrators import EVALUATIONS_PER_STEP, STEPS
+from rolling_disk_env.dynamics import FULL_MODEL, LEAN_INDICES, LEAN_MODEL
+from rolling_disk_env.integrators import EVALUATIONS_PER_STEP, STEPS, rk4
 
 SCENARIO_1 = np.array([2, 0, 0, 0.1, 0, 2.5, 0, 0])
 
@@ -64,6 +65,19 @@ def test_output_times_end_exactly_at_duration():
     times, states = rd.simulate(SCENARIO_1, 1.0, 0.3)
     np.testing.assert_allclose(times, [0, 0.3, 0.6, 0.9, 1.0])
     assert states.shape == (5, 8)
+
+
+@pytest.mark.parametrize("model", [FULL_MODEL, LEAN_MODEL], ids=lambda model: model.name)
+def test_written_out_rk4_step_is_rk4_to_the_last_bit(model):
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        x = rng.uniform(-5, 5, 8)
+        x[3] = rng.uniform(-1.5, 1.5)
+        if model is LEAN_MODEL:
+            x = x[list(LEAN_INDICES)]
+        args = (*rng.uniform(-10, 10, 2), *rng.uniform(0.1, 20, 3))
+        dt = rng.uniform(1e-4, 0.1)
+        assert model.scalar_rk4(x.tolist(), dt, *args) == rk4(model.scalar, x.tolist(), dt, args)
 
 
 def test_evaluations_table_covers_every_fixed_step_method():

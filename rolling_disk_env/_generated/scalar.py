@@ -89,3 +89,152 @@ def diagnostics(x, tau_spin, tau_steer, m, g, r):
     x10 = r*x3
     x11 = 3*m*(r*sin_theta*sin_theta*sin_theta*x5 + r*sin_theta*x2 - 4*sin_theta*x0 - 6*x10*x4 + x10)
     return ((1/8)*m*r*(r*(6*dphi*dphi - 12*sin_theta*x3 + x1 + x2 + x4*x5) + 8*x0), -1/15*x11*x9 - 1/3*x6*x7*x8, -1/15*x11*x6 + (1/3)*x7*x8*x9,)
+
+
+def state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r):
+    """One classical Runge-Kutta step of dt seconds of the full model (x, 8 floats); returns the new state."""
+    c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
+    half = 0.5 * dt
+    x4 = 1/(m*r*r)
+    x5 = 2*x4
+    # stage 1: at x
+    sin_theta_1 = sin(theta)
+    cos_theta_1 = cos(theta)
+    x0_1 = sin(psi)
+    x1_1 = cos(psi)
+    x2_1 = cos_theta_1*dtheta
+    x3_1 = dpsi*sin_theta_1
+    x6_1 = cos_theta_1*dpsi
+    x7_1 = dphi/cos_theta_1
+    k1_c1 = r*(dphi*x0_1 - x0_1*x3_1 + x1_1*x2_1)
+    k1_c2 = r*(-dphi*x1_1 + x0_1*x2_1 + x1_1*x3_1)
+    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x7_1 + 5*x6_1) + (10/3)*sin_theta_1*tau_steer*x4 + (1/3)*tau_spin*x5
+    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x6_1 + (4/5)*g*sin_theta_1/r
+    k1_dpsi = 2*dtheta*x7_1 + 2*tau_steer*x5
+    # stage 2: at x + half k1
+    theta_2 = theta + half * dtheta
+    psi_2 = psi + half * dpsi
+    dphi_2 = dphi + half * k1_dphi
+    dtheta_2 = dtheta + half * k1_dtheta
+    dpsi_2 = dpsi + half * k1_dpsi
+    sin_theta_2 = sin(theta_2)
+    cos_theta_2 = cos(theta_2)
+    x0_2 = sin(psi_2)
+    x1_2 = cos(psi_2)
+    x2_2 = cos_theta_2*dtheta_2
+    x3_2 = dpsi_2*sin_theta_2
+    x6_2 = cos_theta_2*dpsi_2
+    x7_2 = dphi_2/cos_theta_2
+    k2_c1 = r*(dphi_2*x0_2 - x0_2*x3_2 + x1_2*x2_2)
+    k2_c2 = r*(-dphi_2*x1_2 + x0_2*x2_2 + x1_2*x3_2)
+    k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x7_2 + 5*x6_2) + (10/3)*sin_theta_2*tau_steer*x4 + (1/3)*tau_spin*x5
+    k2_dtheta = cos_theta_2*dpsi_2*dpsi_2*sin_theta_2 - 6/5*dphi_2*x6_2 + (4/5)*g*sin_theta_2/r
+    k2_dpsi = 2*dtheta_2*x7_2 + 2*tau_steer*x5
+    # stage 3: at x + half k2
+    theta_3 = theta + half * dtheta_2
+    psi_3 = psi + half * dpsi_2
+    dphi_3 = dphi + half * k2_dphi
+    dtheta_3 = dtheta + half * k2_dtheta
+    dpsi_3 = dpsi + half * k2_dpsi
+    sin_theta_3 = sin(theta_3)
+    cos_theta_3 = cos(theta_3)
+    x0_3 = sin(psi_3)
+    x1_3 = cos(psi_3)
+    x2_3 = cos_theta_3*dtheta_3
+    x3_3 = dpsi_3*sin_theta_3
+    x6_3 = cos_theta_3*dpsi_3
+    x7_3 = dphi_3/cos_theta_3
+    k3_c1 = r*(dphi_3*x0_3 - x0_3*x3_3 + x1_3*x2_3)
+    k3_c2 = r*(-dphi_3*x1_3 + x0_3*x2_3 + x1_3*x3_3)
+    k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x7_3 + 5*x6_3) + (10/3)*sin_theta_3*tau_steer*x4 + (1/3)*tau_spin*x5
+    k3_dtheta = cos_theta_3*dpsi_3*dpsi_3*sin_theta_3 - 6/5*dphi_3*x6_3 + (4/5)*g*sin_theta_3/r
+    k3_dpsi = 2*dtheta_3*x7_3 + 2*tau_steer*x5
+    # stage 4: at x + dt k3
+    theta_4 = theta + dt * dtheta_3
+    psi_4 = psi + dt * dpsi_3
+    dphi_4 = dphi + dt * k3_dphi
+    dtheta_4 = dtheta + dt * k3_dtheta
+    dpsi_4 = dpsi + dt * k3_dpsi
+    sin_theta_4 = sin(theta_4)
+    cos_theta_4 = cos(theta_4)
+    x0_4 = sin(psi_4)
+    x1_4 = cos(psi_4)
+    x2_4 = cos_theta_4*dtheta_4
+    x3_4 = dpsi_4*sin_theta_4
+    x6_4 = cos_theta_4*dpsi_4
+    x7_4 = dphi_4/cos_theta_4
+    k4_c1 = r*(dphi_4*x0_4 - x0_4*x3_4 + x1_4*x2_4)
+    k4_c2 = r*(-dphi_4*x1_4 + x0_4*x2_4 + x1_4*x3_4)
+    k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x7_4 + 5*x6_4) + (10/3)*sin_theta_4*tau_steer*x4 + (1/3)*tau_spin*x5
+    k4_dtheta = cos_theta_4*dpsi_4*dpsi_4*sin_theta_4 - 6/5*dphi_4*x6_4 + (4/5)*g*sin_theta_4/r
+    k4_dpsi = 2*dtheta_4*x7_4 + 2*tau_steer*x5
+    sixth = dt / 6.0
+    return [
+        c1 + sixth * (k1_c1 + 2.0 * (k2_c1 + k3_c1) + k4_c1),
+        c2 + sixth * (k1_c2 + 2.0 * (k2_c2 + k3_c2) + k4_c2),
+        phi + sixth * (dphi + 2.0 * (dphi_2 + dphi_3) + dphi_4),
+        theta + sixth * (dtheta + 2.0 * (dtheta_2 + dtheta_3) + dtheta_4),
+        psi + sixth * (dpsi + 2.0 * (dpsi_2 + dpsi_3) + dpsi_4),
+        dphi + sixth * (k1_dphi + 2.0 * (k2_dphi + k3_dphi) + k4_dphi),
+        dtheta + sixth * (k1_dtheta + 2.0 * (k2_dtheta + k3_dtheta) + k4_dtheta),
+        dpsi + sixth * (k1_dpsi + 2.0 * (k2_dpsi + k3_dpsi) + k4_dpsi),
+    ]
+
+
+def lean_rk4_step(x, dt, tau_spin, tau_steer, m, g, r):
+    """One classical Runge-Kutta step of dt seconds of the lean model (y, 4 floats); returns the new state."""
+    theta, dphi, dtheta, dpsi = x
+    half = 0.5 * dt
+    x0 = 1/(m*r*r)
+    x1 = 2*x0
+    # stage 1: at x
+    sin_theta_1 = sin(theta)
+    cos_theta_1 = cos(theta)
+    x2_1 = cos_theta_1*dpsi
+    x3_1 = dphi/cos_theta_1
+    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x3_1 + 5*x2_1) + (10/3)*sin_theta_1*tau_steer*x0 + (1/3)*tau_spin*x1
+    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x2_1 + (4/5)*g*sin_theta_1/r
+    k1_dpsi = 2*dtheta*x3_1 + 2*tau_steer*x1
+    # stage 2: at x + half k1
+    theta_2 = theta + half * dtheta
+    dphi_2 = dphi + half * k1_dphi
+    dtheta_2 = dtheta + half * k1_dtheta
+    dpsi_2 = dpsi + half * k1_dpsi
+    sin_theta_2 = sin(theta_2)
+    cos_theta_2 = cos(theta_2)
+    x2_2 = cos_theta_2*dpsi_2
+    x3_2 = dphi_2/cos_theta_2
+    k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x3_2 + 5*x2_2) + (10/3)*sin_theta_2*tau_steer*x0 + (1/3)*tau_spin*x1
+    k2_dtheta = cos_theta_2*dpsi_2*dpsi_2*sin_theta_2 - 6/5*dphi_2*x2_2 + (4/5)*g*sin_theta_2/r
+    k2_dpsi = 2*dtheta_2*x3_2 + 2*tau_steer*x1
+    # stage 3: at x + half k2
+    theta_3 = theta + half * dtheta_2
+    dphi_3 = dphi + half * k2_dphi
+    dtheta_3 = dtheta + half * k2_dtheta
+    dpsi_3 = dpsi + half * k2_dpsi
+    sin_theta_3 = sin(theta_3)
+    cos_theta_3 = cos(theta_3)
+    x2_3 = cos_theta_3*dpsi_3
+    x3_3 = dphi_3/cos_theta_3
+    k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x3_3 + 5*x2_3) + (10/3)*sin_theta_3*tau_steer*x0 + (1/3)*tau_spin*x1
+    k3_dtheta = cos_theta_3*dpsi_3*dpsi_3*sin_theta_3 - 6/5*dphi_3*x2_3 + (4/5)*g*sin_theta_3/r
+    k3_dpsi = 2*dtheta_3*x3_3 + 2*tau_steer*x1
+    # stage 4: at x + dt k3
+    theta_4 = theta + dt * dtheta_3
+    dphi_4 = dphi + dt * k3_dphi
+    dtheta_4 = dtheta + dt * k3_dtheta
+    dpsi_4 = dpsi + dt * k3_dpsi
+    sin_theta_4 = sin(theta_4)
+    cos_theta_4 = cos(theta_4)
+    x2_4 = cos_theta_4*dpsi_4
+    x3_4 = dphi_4/cos_theta_4
+    k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x3_4 + 5*x2_4) + (10/3)*sin_theta_4*tau_steer*x0 + (1/3)*tau_spin*x1
+    k4_dtheta = cos_theta_4*dpsi_4*dpsi_4*sin_theta_4 - 6/5*dphi_4*x2_4 + (4/5)*g*sin_theta_4/r
+    k4_dpsi = 2*dtheta_4*x3_4 + 2*tau_steer*x1
+    sixth = dt / 6.0
+    return [
+        theta + sixth * (dtheta + 2.0 * (dtheta_2 + dtheta_3) + dtheta_4),
+        dphi + sixth * (k1_dphi + 2.0 * (k2_dphi + k3_dphi) + k4_dphi),
+        dtheta + sixth * (k1_dtheta + 2.0 * (k2_dtheta + k3_dtheta) + k4_dtheta),
+        dpsi + sixth * (k1_dpsi + 2.0 * (k2_dpsi + k3_dpsi) + k4_dpsi),
+    ]

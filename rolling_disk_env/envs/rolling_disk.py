@@ -12,7 +12,7 @@ import numpy as np
 from rolling_disk_env._generated import scalar
 from rolling_disk_env.dynamics import FULL_MODEL, LEAN_LIMIT
 from rolling_disk_env.envs.config import EnvConfig, action_error
-from rolling_disk_env.integrators import STEPS
+from rolling_disk_env.integrators import scalar_step
 from rolling_disk_env.tasks.base import SCALAR_MATH
 
 TRACK_LENGTH = 5000
@@ -129,8 +129,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self.dt = self.config.dt
         self.action_space = self.config.action_space
         self.observation_space = self.config.observation_space
-        self._step = STEPS[self.config.integrator][0]
-        self._derivative = FULL_MODEL.scalar
+        self._step = scalar_step(self.config.integrator, FULL_MODEL)
         self._substeps = self.config.substeps
         self._substep = self.config.dt / self.config.substeps
         self._actuator_rows = self.config.actuator_rows
@@ -159,7 +158,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         x = self._state
         try:
             for _ in range(self._substeps):
-                x = self._step(self._derivative, x, self._substep, args)
+                x = self._step(x, self._substep, *args)
             in_domain = abs(x[3]) < LEAN_LIMIT and math.isfinite(sum(x))
         except (OverflowError, ZeroDivisionError):
             in_domain = False
