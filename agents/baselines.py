@@ -70,7 +70,7 @@ class UprightLQR(_Controller):
         super().__init__(**env_kwargs)
         if self.config.task.name != "upright":
             raise ValueError("UprightLQR is for task='upright'")
-        dphi = self.config.task.sample_goal(None, self.params)["dphi"]
+        dphi = self.config.task.target_spin_rate(self.params.radius)
         a, b = lean_linearization((0.0, dphi, 0.0, 0.0), self.params)
         q = np.diag(1 / np.array([lean_scale, spin_scale, rate_scale, heading_scale]) ** 2)
         self.gain = discrete_lqr(a, b * self.torque_limits, q, np.eye(2), self.config.dt)

@@ -17,7 +17,8 @@ passes its previous slope ``k`` and step ``h`` and the equations read only the c
 ``state_rk4_step`` and ``lean_rk4_step``, which is what one env step runs. Expressions are rewritten in ``sin`` and
 ``cos`` of theta and psi only and passed through common-subexpression elimination, so one evaluation calls four
 trigonometric functions; the batched module computes cos(theta) as ``sqrt((1 - sin(theta)) (1 + sin(theta)))``
-instead (valid in the model's domain |theta| < pi/2), because numpy's float64 cosine is slow here.
+instead (valid in the model's domain |theta| < pi/2), and takes its sine and cosine from :mod:`rolling_disk_env.trig`,
+because numpy's float64 sine and cosine are slow here.
 """
 
 from __future__ import annotations
@@ -231,7 +232,8 @@ def generate(batched: bool) -> str:
         if batched
         else "Rolling-disk equations for one disk (plain floats and math)."
     )
-    imports = "from numpy import cos, sin, sqrt\n" if batched else "from math import cos, sin\n"
+    batched_imports = "from numpy import sqrt\n\nfrom rolling_disk_env.trig import cos, sin\n"
+    imports = batched_imports if batched else "from math import cos, sin\n"
     generated = equations()
     functions = [
         _function_source(name, arguments, outputs, doc, batched)

@@ -259,27 +259,55 @@ def steady_circle(radius: float, speed: float, params: DiskParams | None = None)
     With theta and the rates constant, the centre moves at ``v = r (dphi - dpsi sin(theta))`` and turns at ``dpsi``,
     so ``dpsi = v / R``. The paper's circle condition (:func:`steady_circle_spin_rate`) then reads
     ``v / r + dpsi sin(theta) / 6 = 2 g tan(theta) / (3 r dpsi)``, increasing in theta while ``dpsi^2 < 4 g / r``;
-    it is solved by Newton's method.
+    it is solved by Newton's method (:func:`steady_circles` solves many at once).
 
     Returns:
         ``(theta, dphi, dpsi)``: lean (rad, > 0: leaning into the turn), spin and heading rates (rad/s).
     """
     p = params or DEFAULT_PARAMS
-    if not (math.isfinite(radius) and radius > 0 and math.isfinite(speed) and speed > 0):
-        raise ValueError(f"radius and speed must be finite and > 0, got {radius!r} m and {speed!r} m/s")
-    dpsi = speed / radius
-    if dpsi**2 >= 4 * p.gravity / p.radius:
-        raise ValueError(f"no steady circle turns at dpsi = {dpsi:.3g} rad/s >= 2 sqrt(g / r): raise the radius")
+    theta, dphi, dpsi = steady_circles(radius, speed, p.gravity, p.radius)
+    return float(theta), float(dphi), float(dpsi)
 
-    a, b, c = 2 * p.gravity / (3 * p.radius * dpsi), dpsi / 6, speed / p.radius
+
+def steady_circles(radius, speed, gravity, disk_radius) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`steady_circle` for arrays: path radius (m), speed (m/s), gravity (m/s^2) and disk radius (m) are floats
+    or arrays, broadcast together; returns the arrays ``(theta, dphi, dpsi)``. Each circle takes the Newton steps
+    it would take alone, so the results equal those of :func:`steady_circle` one by one.
+
+    Raises:
+        ValueError: a radius or speed that is not finite and > 0, or a circle too tight to be steady or to stay in
+            the model's domain.
+    """
+    radius, speed, gravity, disk_radius = np.broadcast_arrays(
+        *(np.asarray(v, dtype=np.float64) for v in (radius, speed, gravity, disk_radius))
+    )
+    bad = ~(np.isfinite(radius) & (radius > 0) & np.isfinite(speed) & (speed > 0))
+    if bad.any():
+        i = np.flatnonzero(bad)[0]
+        raise ValueError(f"radius and speed must be finite and > 0, got {radius.flat[i]} m and {speed.flat[i]} m/s")
+    dpsi = speed / radius
+    too_tight = dpsi * dpsi >= 4 * gravity / disk_radius
+    if too_tight.any():
+        i = np.flatnonzero(too_tight)[0]
+        raise ValueError(
+            f"no steady circle turns at dpsi = {dpsi.flat[i]:.3g} rad/s >= 2 sqrt(g / r): raise the radius"
+        )
+    a, b, c = 2 * gravity / (3 * disk_radius * dpsi), dpsi / 6, speed / disk_radius
     # excess(theta) = a tan(theta) - b sin(theta) - c is increasing and convex on [0, pi/2), so Newton's method
     # converges monotonically from any point right of the root, such as atan((b + c) / a), where excess >= 0.
-    theta = math.atan((b + c) / a)
+    theta = np.arctan((b + c) / a)
+    converged = np.zeros(theta.shape, dtype=bool)
     for _ in range(50):
-        step = (a * math.tan(theta) - b * math.sin(theta) - c) / (a / math.cos(theta) ** 2 - b * math.cos(theta))
-        theta -= step
-        if abs(step) < 1e-15:
+        cos_theta = np.cos(theta)
+        step = (a * np.tan(theta) - b * np.sin(theta) - c) / (a / (cos_theta * cos_theta) - b * cos_theta)
+        theta = np.where(converged, theta, theta - step)
+        converged |= np.abs(step) < 1e-15
+        if converged.all():
             break
-    if not theta < LEAN_LIMIT:
-        raise ValueError(f"the steady circle of radius {radius} m at {speed} m/s would lean past the model's domain")
-    return theta, speed / p.radius + dpsi * math.sin(theta), dpsi
+    too_lean = ~(theta < LEAN_LIMIT)
+    if too_lean.any():
+        i = np.flatnonzero(too_lean)[0]
+        raise ValueError(
+            f"the steady circle of radius {radius.flat[i]} m at {speed.flat[i]} m/s would lean past the model's domain"
+        )
+    return theta, speed / disk_radius + dpsi * np.sin(theta), dpsi

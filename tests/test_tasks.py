@@ -7,7 +7,8 @@ import pytest
 
 import rolling_disk_env as rd
 from rolling_disk_env.dynamics import steady_circle
-from rolling_disk_env.tasks import CircleTask, UprightTask
+from rolling_disk_env.envs.config import EnvConfig
+from rolling_disk_env.tasks import UprightTask
 
 
 def _linearize(dphi: float):
@@ -34,7 +35,7 @@ def _controllability_rank(a, b) -> int:
 
 def test_upright_rolling_at_the_target_speed_is_controllable():
     task = UprightTask()
-    dphi = task.sample_goal(None, rd.DiskParams())["dphi"]
+    dphi = task.target_spin_rate(rd.DiskParams().radius)
     assert dphi**2 < rd.DiskParams().critical_spin_rate ** 2  # unstable without control
     a, b = _linearize(dphi)
     assert _controllability_rank(a, b) == 4
@@ -60,12 +61,10 @@ def test_steady_circle_has_the_requested_radius_and_speed(radius, speed):
 
 
 def test_circle_observation_reads_the_sampled_offsets():
-    task = CircleTask()
-    rng = np.random.default_rng(0)
-    goal = task.sample_goal(rng, rd.DiskParams())
-    ranges = task.initial_ranges({"radial_offset": (0.3, 0.3), "heading_error": (0.1, 0.1), "theta": (0.02, 0.02)})
-    x = task.initial_state(rng, ranges, rd.DiskParams(), goal)
-    observation = task.observe(x, goal, np)
+    offsets = {"radial_offset": (0.3, 0.3), "heading_error": (0.1, 0.1), "theta": (0.02, 0.02)}
+    config = EnvConfig.from_kwargs(task="circle", initial_ranges=offsets)
+    _, goal, x = config.sample_episode(np.random.default_rng(0), None)
+    observation = config.task.observe(x, goal, np)
     assert observation[0] == pytest.approx(0.3)
     assert observation[1] == pytest.approx(math.sin(0.1))
     assert observation[2] == pytest.approx(math.cos(0.1))

@@ -9,21 +9,28 @@ import rolling_disk_env as rd
 from rolling_disk_env.tasks import TASKS
 
 
-def _single_envs_like_a_vector(task, seed, num_envs, max_episode_steps):
-    envs = [gym.make(rd.ENV_ID, task=task, max_episode_steps=max_episode_steps) for _ in range(num_envs)]
+def _single_envs_like_a_vector(seed, num_envs, max_episode_steps, **kwargs):
+    envs = [gym.make(rd.ENV_ID, max_episode_steps=max_episode_steps, **kwargs) for _ in range(num_envs)]
     first = [env.reset(seed=seed + i) for i, env in enumerate(envs)]
     return envs, first
 
 
-@pytest.mark.parametrize("task", sorted(TASKS))
-def test_vector_env_equals_single_envs_with_next_step_autoreset(task):
+RANDOMIZED_DISKS = {"params_ranges": {"mass": (4.0, 6.0), "radius": (0.8, 1.2), "gravity": (9.0, 10.6)}}
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"task": task} for task in sorted(TASKS)] + [{"task": task, **RANDOMIZED_DISKS} for task in sorted(TASKS)],
+    ids=lambda kwargs: kwargs["task"] + (" randomized disks" if "params_ranges" in kwargs else ""),
+)
+def test_vector_env_equals_single_envs_with_next_step_autoreset(kwargs):
     num_envs, steps, limit = 6, 160, 60
     vector = gym.make_vec(
-        rd.ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point", task=task, max_episode_steps=limit
+        rd.ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point", max_episode_steps=limit, **kwargs
     )
     assert vector.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     observations, infos = vector.reset(seed=11)
-    singles, first = _single_envs_like_a_vector(task, 11, num_envs, limit)
+    singles, first = _single_envs_like_a_vector(11, num_envs, limit, **kwargs)
     np.testing.assert_allclose(observations, [o for o, _ in first], rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(infos["state"], [i["state"] for _, i in first], rtol=0, atol=1e-12)
 

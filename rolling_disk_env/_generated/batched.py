@@ -9,7 +9,9 @@ Torques: tau_spin about the disk's axis R e1 and tau_steer about the vertical +z
 Constants: m (kg), g (m/s^2), r (m).
 """
 
-from numpy import cos, sin, sqrt
+from numpy import sqrt
+
+from rolling_disk_env.trig import cos, sin
 
 
 def state_derivative(x, k, h, tau_spin, tau_steer, m, g, r, out):

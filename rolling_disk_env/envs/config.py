@@ -11,6 +11,7 @@ from gymnasium import spaces
 from rolling_disk_env.dynamics import DEFAULT_PARAMS, DiskParams, check_states
 from rolling_disk_env.integrators import STEPS
 from rolling_disk_env.tasks import TASKS, Task
+from rolling_disk_env.tasks.base import SCALAR_MATH
 
 ACTUATORS = ("spin", "steer")
 """Torque inputs, in the order of the dynamics' ``(tau_spin, tau_steer)``."""
@@ -121,32 +122,60 @@ class EnvConfig:
         scale[self.actuator_rows, range(len(self.actuators))] = self.actuator_limits
         return scale
 
-    def sample_params(self, rng: np.random.Generator) -> DiskParams:
-        """The episode's disk: ``params`` with each key of ``params_ranges`` drawn uniformly."""
-        if not self.params_ranges:
-            return self.params
-        drawn = {key: float(rng.uniform(low, high)) for key, (low, high) in self.params_ranges.items()}
-        return DiskParams(**{**{f.name: getattr(self.params, f.name) for f in fields(DiskParams)}, **drawn})
+    @property
+    def draws(self) -> int:
+        """How many uniform numbers an episode draws: one per range of the disk, the goal and the initial state."""
+        return len(self.params_ranges) + len(self.task.goal_ranges) + len(self.initial_ranges)
+
+    def episode(self, uniforms, xp) -> tuple[tuple, dict, list]:
+        """An episode's disk constants ``(m, g, r)``, goal and initial state, from :attr:`draws` uniforms in [0, 1).
+
+        The uniforms are floats for one episode (``xp`` is then ``tasks.base.SCALAR_MATH``) or rows of shape (n,)
+        for n episodes (``xp`` is ``tasks.base.BATCHED_MATH``), taken in this order: ``params_ranges``, the task's
+        ``goal_ranges``, ``initial_ranges``, each in its keys' order; a value is ``low + (high - low) u``.
+        """
+        values = iter(uniforms)
+
+        def scale(ranges: dict) -> dict:
+            return {key: low + (high - low) * next(values) for key, (low, high) in ranges.items()}
+
+        disk = scale(self.params_ranges)
+        mass, gravity, radius = self.params.constants
+        constants = (disk.get("mass", mass), disk.get("gravity", gravity), disk.get("radius", radius))
+        goal = self.task.goal(scale(self.task.goal_ranges), constants, xp)
+        return constants, goal, self.task.initial_state(scale(self.initial_ranges), constants, goal, xp)
 
     def sample_episode(self, rng: np.random.Generator, options: dict | None) -> tuple[DiskParams, dict, list[float]]:
-        """Draws an episode's disk, goal and initial state; ``options["state"]`` sets the state exactly."""
+        """Draws one episode's disk, goal and initial state (floats) with a single call of ``rng``;
+        ``options["state"]`` then sets the state exactly."""
+        state = self.reset_state(options)
+        (mass, gravity, radius), goal, drawn = self.episode(rng.random(self.draws).tolist(), SCALAR_MATH)
+        params = DiskParams(mass=mass, radius=radius, gravity=gravity) if self.params_ranges else self.params
+        goal = {key: float(value) for key, value in goal.items()}
+        return params, goal, [float(v) for v in drawn] if state is None else state.tolist()
+
+    def reset_state(self, options: dict | None, num_envs: int | None = None) -> np.ndarray | None:
+        """The checked initial state(s) ``options["state"]`` of shape (8,), or (num_envs, 8) for a vector env; or
+        None. Raises ``ValueError`` on an unknown option, a wrong shape, a state outside the model's domain or a
+        disk that has already fallen."""
         options = options or {}
         unknown = options.keys() - RESET_OPTIONS
         if unknown:
             raise ValueError(f"unknown reset option(s) {sorted(unknown)}; options: {sorted(RESET_OPTIONS)}")
-        params = self.sample_params(rng)
-        goal = self.task.sample_goal(rng, params)
-        if "state" in options:
-            state = check_states(options["state"], name='options["state"]')
-            if state.ndim != 1:
-                raise ValueError(f'options["state"] must have shape (8,), got {state.shape}')
-            if self.task.fallen(state, np):
-                raise ValueError(
-                    f'options["state"] has |theta| = {abs(state[3]):.4g} rad: the disk has already fallen '
-                    f"(fall_lean = {self.task.fall_lean} rad for task {self.task.name!r})"
-                )
-            return params, goal, state.tolist()
-        return params, goal, self.task.initial_state(rng, self.initial_ranges, params, goal)
+        if "state" not in options:
+            return None
+        state = check_states(options["state"], name='options["state"]')
+        expected = (8,) if num_envs is None else (num_envs, 8)
+        if state.shape != expected:
+            raise ValueError(f'options["state"] must have shape {expected}, got {state.shape}')
+        fallen = np.flatnonzero(self.task.fallen(np.atleast_2d(state).T, np))
+        if fallen.size:
+            theta = np.atleast_2d(state)[fallen[0], 3]
+            raise ValueError(
+                f'options["state"] has |theta| = {abs(theta):.4g} rad: the disk has already fallen '
+                f"(fall_lean = {self.task.fall_lean} rad for task {self.task.name!r})"
+            )
+        return state
 
 
 def action_error(action, expected: tuple[int, ...]) -> str | None:

@@ -13,6 +13,7 @@ from rolling_disk_env._generated import batched
 from rolling_disk_env.dynamics import FULL_MODEL, LEAN_LIMIT
 from rolling_disk_env.envs.config import EnvConfig, action_error
 from rolling_disk_env.integrators import STEPS, padded_rows, workspace
+from rolling_disk_env.tasks.base import BATCHED_MATH
 
 
 class RollingDiskVectorEnv(VectorEnv):
@@ -56,7 +57,10 @@ class RollingDiskVectorEnv(VectorEnv):
         self._step = STEPS[self.config.integrator][1]
         self._substep = self.config.dt / self.config.substeps
         self._torque_scale = self.config.torque_scale
-        self._obs_low, self._obs_high = self.single_observation_space.low, self.single_observation_space.high
+        self._obs_low = self.single_observation_space.low[:, None]
+        self._obs_high = self.single_observation_space.high[:, None]
+        actuators = self.single_action_space.shape[0]
+        self._mean_weights = np.full(actuators, 1.0 / actuators) if actuators else np.zeros(0)
         self._rngs = [seeding.np_random()[0] for _ in range(num_envs)]
         self._x = padded_rows(FULL_MODEL.size, num_envs)
         self._x[:] = 0.0
@@ -73,35 +77,31 @@ class RollingDiskVectorEnv(VectorEnv):
         self._index = np.arange(num_envs)
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
+        states = self.config.reset_state(options, self.num_envs)
         if seed is not None:
             seeds = [seed + i for i in range(self.num_envs)] if isinstance(seed, int) else list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"seed must be an int or a list of {self.num_envs} ints, got {seed!r}")
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        options = dict(options or {})
-        states = options.pop("state", None)
-        if states is not None:
-            states = np.asarray(states, dtype=np.float64)
-            if states.shape != (self.num_envs, FULL_MODEL.size):
-                raise ValueError(f'options["state"] must have shape ({self.num_envs}, 8), got {states.shape}')
-        per_env = [{**options, **({} if states is None else {"state": states[i]})} for i in range(self.num_envs)]
-        self._start_episodes(self._index, per_env)
+        self._start_episodes(self._index, states)
         self._autoreset[:] = False
         self._torques[:] = 0.0
         terms = {}
         return self._observations(), self._infos(terms, np.zeros(self.num_envs, dtype=bool), None)
 
-    def _start_episodes(self, indices: np.ndarray, options: list[dict] | None = None) -> None:
-        """Draws new episodes for the sub-environments ``indices``, each from its own generator."""
-        episodes = [
-            self.config.sample_episode(self._rngs[i], None if options is None else options[n])
-            for n, i in enumerate(indices.tolist())
-        ]
-        self._x[:, indices] = np.array([state for _, _, state in episodes]).T
+    def _start_episodes(self, indices: np.ndarray, states: np.ndarray | None = None) -> None:
+        """Starts new episodes in the sub-environments ``indices``, each drawn from its own generator with the
+        single env's draws and formulas; ``states`` (shape (len(indices), 8)) then sets the states exactly."""
+        draws = self.config.draws
+        uniforms = np.array([self._rngs[i].random(draws) for i in indices.tolist()]).reshape(len(indices), draws)
+        constants, goal, state = self.config.episode(uniforms.T, BATCHED_MATH)
+        for row, value in enumerate(state if states is None else states.T):
+            self._x[row, indices] = value
         if self._shared_constants is None:
-            self._constants[:, indices] = np.array([params.constants for params, _, _ in episodes]).T
-        for key in episodes[0][1]:
-            self._goal.setdefault(key, np.zeros(self.num_envs))[indices] = [goal[key] for _, goal, _ in episodes]
+            for row, value in enumerate(constants):
+                self._constants[row, indices] = value
+        for key, value in goal.items():
+            self._goal.setdefault(key, np.zeros(self.num_envs))[indices] = value
         self._elapsed[indices] = 0
         self._error_sums[indices, 0] = 0.0
 
@@ -111,14 +111,14 @@ class RollingDiskVectorEnv(VectorEnv):
             raise ValueError(error.replace("action", "actions", 1))
         clipped = np.clip(np.asarray(actions, dtype=np.float64), -1.0, 1.0)
         torques = self._torque_scale @ clipped.T
-        effort = np.einsum("ij,ij->i", clipped, clipped) / max(1, clipped.shape[1])
+        effort = (clipped * clipped) @ self._mean_weights
         x = self._x
         np.copyto(self._previous, x)
         args = (torques[0], torques[1], *self._disk_constants())
         with np.errstate(all="ignore"):
             for _ in range(self.config.substeps):
                 self._step(FULL_MODEL.batched, x, self._substep, args, self._work)
-            in_domain = (np.abs(x[3]) < LEAN_LIMIT) & np.all(np.isfinite(x), axis=0)
+            in_domain = (np.abs(x[3]) < LEAN_LIMIT) & np.isfinite(x.sum(axis=0))
         if not in_domain.all():
             x[:, ~in_domain] = self._previous[:, ~in_domain]
         self._torques = torques
@@ -129,9 +129,9 @@ class RollingDiskVectorEnv(VectorEnv):
         self._torques[:, resetting] = 0.0
         self._elapsed += ~resetting
 
-        terms = self.task.reward_terms(x, effort, self._goal, np)
+        terms = self.task.reward_terms(x, effort, self._goal, BATCHED_MATH)
         rewards = np.where(resetting, 0.0, self.task.reward(terms))
-        terminated = (self.task.fallen(x, np) | ~in_domain) & ~resetting
+        terminated = (self.task.fallen(x, BATCHED_MATH) | ~in_domain) & ~resetting
         limit = self.max_episode_steps
         truncated = (self._elapsed >= limit) & ~resetting if limit is not None else np.zeros(self.num_envs, bool)
         if self.task.success_bound is not None:
@@ -147,17 +147,19 @@ class RollingDiskVectorEnv(VectorEnv):
     def _record_tracking_error(self, resetting: np.ndarray) -> None:
         if self._elapsed.max() >= self._error_sums.shape[1]:
             self._error_sums = np.concatenate([self._error_sums, np.zeros_like(self._error_sums)], axis=1)
-        error = self.task.tracking_error(self._x, self._goal, np)
+        error = self.task.tracking_error(self._x, self._goal, BATCHED_MATH)
         stepped = self._index[~resetting]
         steps = self._elapsed[stepped]
         self._error_sums[stepped, steps] = self._error_sums[stepped, steps - 1] + error[stepped]
 
     def _observations(self) -> np.ndarray:
-        components = self.task.observe(self._x, self._goal, np)
-        observation = np.empty((self.num_envs, len(components)), dtype=np.float32)
-        for column, component in enumerate(components):
-            observation[:, column] = component
-        return np.clip(observation, self._obs_low, self._obs_high, out=observation)
+        components = self.task.observe(self._x, self._goal, BATCHED_MATH)
+        # Component-major while clipping: numpy's clip against per-column bounds is slow on rows of 4 values.
+        observation = np.empty((len(components), self.num_envs), dtype=np.float32)
+        for row, component in enumerate(components):
+            observation[row] = component
+        np.clip(observation, self._obs_low, self._obs_high, out=observation)
+        return observation.T.copy()
 
     def _infos(self, terms: dict, terminated: np.ndarray, in_domain: np.ndarray | None) -> dict:
         x = self._x

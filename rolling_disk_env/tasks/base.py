@@ -2,7 +2,9 @@
 
 A task's formulas are written once and run on one disk or on N disks: ``x`` is a sequence of the 8 state components
 (floats for one disk, rows of shape (N,) for N disks), ``goal`` a dict of per-episode targets (floats or arrays), and
-``xp`` the namespace of elementwise functions, :data:`SCALAR_MATH` or numpy.
+``xp`` the namespace of elementwise functions, :data:`SCALAR_MATH` or :data:`BATCHED_MATH` (numpy works too).
+Episodes are drawn the same way: the env draws each range's value uniformly
+(:meth:`rolling_disk_env.envs.config.EnvConfig.episode`) and the task turns the values into a goal and a state.
 """
 
 from __future__ import annotations
@@ -14,10 +16,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from rolling_disk_env.dynamics import LEAN_LIMIT, DiskParams
+from rolling_disk_env import trig
+from rolling_disk_env.dynamics import LEAN_LIMIT
 
 SCALAR_MATH = SimpleNamespace(sin=math.sin, cos=math.cos, sqrt=math.sqrt, minimum=min, abs=abs)
 """numpy's names for the functions the tasks use, on floats."""
+BATCHED_MATH = SimpleNamespace(sin=trig.sin, cos=trig.cos, sqrt=np.sqrt, minimum=np.minimum, abs=np.abs)
+"""The same on arrays: numpy's, with the batched path's sine and cosine (:mod:`rolling_disk_env.trig`)."""
 
 RATE_BOUND = 100.0
 """rad/s. Observed rates are clipped to +-RATE_BOUND so that the observation space is bounded."""
@@ -73,12 +78,6 @@ class Task(ABC):
             ranges[key] = (low, high)
         return ranges
 
-    @staticmethod
-    def draw(rng: np.random.Generator, ranges: dict[str, tuple[float, float]]) -> dict[str, float]:
-        """One uniform value in each range, from a single call of the generator (an episode's whole draw)."""
-        uniforms = rng.random(len(ranges)).tolist()
-        return {key: low + (high - low) * u for (key, (low, high)), u in zip(ranges.items(), uniforms)}
-
     @property
     def observation_high(self) -> np.ndarray:
         """Upper bounds of the observation (the lower bounds are their negatives), float32."""
@@ -88,15 +87,18 @@ class Task(ABC):
         """Bound of one observation component; rates default to :data:`RATE_BOUND`."""
         return RATE_BOUND
 
-    @abstractmethod
-    def sample_goal(self, rng: np.random.Generator, params: DiskParams) -> dict[str, float]:
-        """The episode's targets."""
+    @property
+    def goal_ranges(self) -> dict[str, tuple[float, float]]:
+        """Per-episode goal values drawn uniformly from their ranges (none by default)."""
+        return {}
 
     @abstractmethod
-    def initial_state(
-        self, rng: np.random.Generator, ranges: dict[str, tuple[float, float]], params: DiskParams, goal: dict
-    ) -> list[float]:
-        """An initial state (8 floats) drawn from ``ranges``."""
+    def goal(self, drawn: dict, constants: tuple, xp) -> dict:
+        """The episode's targets, from the values ``drawn`` in :attr:`goal_ranges` and the disk's ``(m, g, r)``."""
+
+    @abstractmethod
+    def initial_state(self, drawn: dict, constants: tuple, goal: dict, xp) -> list:
+        """The initial state's 8 components, from the values ``drawn`` in the initial-state ranges."""
 
     @abstractmethod
     def observe(self, x, goal: dict, xp) -> list:

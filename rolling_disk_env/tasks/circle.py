@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import ClassVar
 
-from rolling_disk_env.dynamics import DiskParams, steady_circle
+from rolling_disk_env.dynamics import steady_circles
 from rolling_disk_env.tasks.base import Task
 
 
@@ -98,12 +98,15 @@ class CircleTask(Task):
         }
         return bounds.get(name, super().observation_bound(name))
 
-    def sample_goal(self, rng, params: DiskParams) -> dict[str, float]:
-        low, high = self.radius_range
-        radius = low + (high - low) * rng.random()
-        theta, dphi, dpsi = steady_circle(radius, self.target_speed, params)
+    @property
+    def goal_ranges(self) -> dict[str, tuple[float, float]]:
+        return {"radius": self.radius_range}
+
+    def goal(self, drawn, constants, xp) -> dict:
+        _, gravity, disk_radius = constants
+        theta, dphi, dpsi = steady_circles(drawn["radius"], self.target_speed, gravity, disk_radius)
         return {
-            "radius": radius,
+            "radius": drawn["radius"],
             "cx": self.centre[0],
             "cy": self.centre[1],
             "theta": theta,
@@ -111,13 +114,13 @@ class CircleTask(Task):
             "dpsi": dpsi,
         }
 
-    def initial_state(self, rng, ranges, params, goal) -> list[float]:
-        v = self.draw(rng, ranges)
+    def initial_state(self, drawn, constants, goal, xp) -> list:
+        v = drawn
         distance = goal["radius"] + v["radial_offset"]
-        c1 = goal["cx"] + distance * math.cos(v["angle"])
-        c2 = goal["cy"] + distance * math.sin(v["angle"])
+        c1 = goal["cx"] + distance * xp.cos(v["angle"])
+        c2 = goal["cy"] + distance * xp.sin(v["angle"])
         # Rolling direction (sin psi, -cos psi) along the counter-clockwise tangent (-sin a, cos a): psi = a + pi.
-        psi = math.remainder(v["angle"] + math.pi + v["heading_error"], 2 * math.pi)
+        psi = v["angle"] + math.pi + v["heading_error"]
         return [c1, c2, v["phi"], v["theta"], psi, goal["dphi"] * (1 + v["dphi_error"]), v["dtheta"], v["dpsi"]]
 
     def _polar(self, x, goal, xp):

@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 from typing import ClassVar
 
-from rolling_disk_env.dynamics import DiskParams
 from rolling_disk_env.tasks.base import Task
 
 
@@ -61,11 +60,15 @@ class UprightTask(Task):
     def observation_bound(self, name: str) -> float:
         return math.pi / 2 if name == "theta" else super().observation_bound(name)
 
-    def sample_goal(self, rng, params: DiskParams) -> dict[str, float]:
-        return {"dphi": self.target_speed / params.radius}
+    def target_spin_rate(self, disk_radius):
+        """dphi* = target_speed / r (rad/s), for a disk of radius ``disk_radius`` (m; a float or an array)."""
+        return self.target_speed / disk_radius
 
-    def initial_state(self, rng, ranges, params, goal) -> list[float]:
-        v = self.draw(rng, ranges)
+    def goal(self, drawn, constants, xp) -> dict:
+        return {"dphi": self.target_spin_rate(constants[2])}
+
+    def initial_state(self, drawn, constants, goal, xp) -> list:
+        v = drawn
         return [0.0, 0.0, v["phi"], v["theta"], v["psi"], v["dphi"], v["dtheta"], v["dpsi"]]
 
     def observe(self, x, goal, xp) -> list:
