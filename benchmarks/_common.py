@@ -28,7 +28,7 @@ def median_seconds(call: Callable[[], object], number: int, repeat: int = 7) -> 
 def machine() -> str:
     """A markdown line naming the machine and the versions that matter to the numbers."""
     versions = ", ".join(
-        f"{name} {metadata.version(name)}" for name in ("numpy", "scipy", "gymnasium") if _installed(name)
+        f"{name} {metadata.version(name)}" for name in ("numpy", "scipy", "gymnasium", "torch") if _installed(name)
     )
     cpu = platform.processor() or platform.machine()
     return (

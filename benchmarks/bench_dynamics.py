@@ -12,6 +12,7 @@ import math
 import numpy as np
 from _common import median_seconds, table, write_markdown
 
+from rolling_disk_env import trig
 from rolling_disk_env.dynamics import DEFAULT_PARAMS, FULL_MODEL, LEAN_MODEL
 from rolling_disk_env.integrators import EVALUATIONS_PER_STEP, STEPS, rk4_batched, workspace
 
@@ -79,9 +80,22 @@ def batched_rows(sizes=(1, 16, 256, 4096, 65536)) -> list[list[object]]:
     return rows
 
 
+def trig_rows(sizes=(64, 512, 1024, 4096, 65536)) -> list[list[object]]:
+    """numpy's float64 sine against :mod:`rolling_disk_env.trig`'s (torch's from ``TORCH_FROM`` values up)."""
+    rows = []
+    for n in sizes:
+        angles = np.random.default_rng(0).uniform(-4, 4, n)
+        number = max(20, 200_000 // n)
+        ours = median_seconds(lambda a=angles: trig.sin(a), number)
+        theirs = median_seconds(lambda a=angles: np.sin(a), number)
+        rows.append([n, f"{theirs * 1e6:.1f}", f"{ours * 1e6:.1f}", f"{theirs / ours:.2f}"])
+    return rows
+
+
 def main() -> None:
     scalar = scalar_rows()
     batched = batched_rows()
+    sines = trig_rows()
     evaluations = ", ".join(f"{method} {count}" for method, count in EVALUATIONS_PER_STEP.items())
     write_markdown(
         "dynamics",
@@ -97,6 +111,10 @@ def main() -> None:
             "## N disks (batched numpy path), RK4, one step, median of 7 runs",
             "",
             table(["N", "model", "us / step", "M disk-steps / s"], batched),
+            "",
+            "## Sine of N float64 values: numpy against `rolling_disk_env.trig` (the batched path's), median of 7 runs",
+            "",
+            table(["N", "numpy.sin us", "trig.sin us", "speed-up"], sines),
         ],
     )
 

@@ -14,7 +14,7 @@ import numpy as np
 from _common import median_seconds, table, write_markdown
 
 from rolling_disk_env.dynamics import DEFAULT_PARAMS, FULL_MODEL, LEAN_INDICES, LEAN_MODEL
-from rolling_disk_env.integrators import rk4, rk4_batched, workspace
+from rolling_disk_env.integrators import rk4_batched, workspace
 
 DT, STEPS = 0.02, 500
 
@@ -23,12 +23,12 @@ def episode_seconds(model, x0) -> tuple[float, float]:
     """(seconds per step, seconds per episode), scalar path."""
     args = (0.3, -0.5, *DEFAULT_PARAMS.constants)
     x = list(x0)
-    step = median_seconds(lambda: rk4(model.scalar, x, DT, args), 20_000)
+    step = median_seconds(lambda: model.scalar_rk4(x, DT, *args), 20_000)
 
     def episode():
         y = list(x0)
         for _ in range(STEPS):
-            y = rk4(model.scalar, y, DT, args)
+            y = model.scalar_rk4(y, DT, *args)
 
     return step, median_seconds(episode, 20)
 
@@ -54,7 +54,7 @@ def agreement() -> float:
         full, lean = list(x0), [x0[i] for i in LEAN_INDICES]
         for u in torques:
             args = (u[0], u[1], *DEFAULT_PARAMS.constants)
-            full, lean = rk4(FULL_MODEL.scalar, full, DT, args), rk4(LEAN_MODEL.scalar, lean, DT, args)
+            full, lean = FULL_MODEL.scalar_rk4(full, DT, *args), LEAN_MODEL.scalar_rk4(lean, DT, *args)
             worst = max(worst, float(np.max(np.abs(np.array(lean) - np.array(full)[list(LEAN_INDICES)]))))
     return worst
 

@@ -1,8 +1,8 @@
-"""Sine and cosine of float64 arrays for the batched path: a third of a step of N disks is spent here.
+"""Sine and cosine of float64 arrays for the batched path, where numpy's took a third of a vector-env step.
 
 numpy's float64 ``sin`` and ``cos`` are scalar loops over the C library (about 8 ns a value here, 33 us at
 N = 4096), while torch's CPU kernels are vectorized (SLEEF, AVX2/AVX-512, at most 1 ulp from the exact value):
-2.6 to 3.5x faster from about a thousand values up (``python benchmarks/bench_dynamics.py`` times both). torch is
+1.4x faster at a thousand values, 3.3x at 4096 (``python benchmarks/bench_dynamics.py`` times both). torch is
 installed anyway, for Stable-Baselines3; it is imported on the first large array, not with the package.
 
 Both functions take and return numpy arrays (or floats); smaller arrays stay with numpy, whose call costs less.
@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-TORCH_FROM = 512
-"""Arrays of at least this many values go to torch (below, numpy's cheaper call wins; measured crossover ~400)."""
+TORCH_FROM = 640
+"""Arrays of at least this many values go to torch (below, numpy's cheaper call wins; the two cost the same at
+about 550 values here, 5 us)."""
 
 
 def _tensor(a: np.ndarray):

@@ -29,10 +29,10 @@ class RollingDiskVectorEnv(VectorEnv):
 
     Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)``, as ``SyncVectorEnv`` does, and draws
     its episodes exactly as a single env with that seed would, so both give the same transitions (to round-off:
-    numpy's and ``math``'s sine may differ in the last bit). Autoreset follows Gymnasium's default
-    ``AutoresetMode.NEXT_STEP``: the step after a sub-environment ends resets it, ignores its action and returns
-    its first observation with reward 0. ``reset(options={"state": X})`` takes initial states of shape (N, 8).
-    Rendering is not offered: render one disk with the single env.
+    the batched sine of :mod:`rolling_disk_env.trig` and ``math``'s may differ in the last bit). Autoreset follows
+    Gymnasium's default ``AutoresetMode.NEXT_STEP``: the step after a sub-environment ends resets it, ignores its
+    action and returns its first observation with reward 0. ``reset(options={"state": X})`` takes initial states
+    of shape (N, 8). Rendering is not offered: render one disk with the single env.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
