@@ -16,11 +16,11 @@ def test_generated_code_is_current(batched, filename):
     )
 
 
-def test_import_does_not_run_the_derivation():
+def test_import_does_not_run_the_derivation_nor_load_torch():
     code = (
         "import sys, time; t = time.perf_counter(); import rolling_disk_env; "
-        "print(time.perf_counter() - t, 'sympy' in sys.modules)"
+        "print(time.perf_counter() - t, 'sympy' in sys.modules, 'torch' in sys.modules)"
     )
-    seconds, sympy_loaded = subprocess.check_output([sys.executable, "-c", code], text=True).split()
-    assert sympy_loaded == "False"
+    seconds, sympy_loaded, torch_loaded = subprocess.check_output([sys.executable, "-c", code], text=True).split()
+    assert (sympy_loaded, torch_loaded) == ("False", "False")
     assert float(seconds) < 1.0
