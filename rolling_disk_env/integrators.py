@@ -1,176 +1,60 @@
-"""Fixed-step integrators as pure step functions, and :func:`simulate`.
+"""The integrators and :func:`simulate`.
 
-A step function advances one state by ``dt`` seconds: ``step(derivative, x, dt, args) -> x_next``, where
-``derivative(x, k, h, *args)`` is a :class:`~rolling_disk_env.dynamics.Model`'s equation evaluated at ``x + h k`` and
-``args = (tau_spin, tau_steer, m, g, r)``, the torques held constant over the step. Each method has a scalar form
-(``x`` a sequence of floats, one disk; returns a new list) and a batched form
-``step(derivative, x, dt, args, work)`` (``x`` a component-major array of shape (size, N), updated in place, ``work``
-from :func:`workspace`); both do the same arithmetic, so they agree to round-off.
-
-Methods:
+Methods (:data:`METHODS`), all but the last integrated by the compiled engine (:mod:`rolling_disk_env.engine`), one
+step of each written out from its Butcher tableau by :mod:`rolling_disk_env.codegen`:
 
 * ``"euler"``: explicit Euler, order 1, one evaluation per step. Its energy grows: use it to see why not.
 * ``"symplectic_euler"``: semi-implicit Euler, order 1, two evaluations: velocities first, then coordinates from the
-  new velocities. In both models the last three components are the velocities ``(dphi, dtheta, dpsi)``.
+  new velocities. The rolling constraint is nonholonomic, so it has no symplectic advantage here.
 * ``"rk4"``: the classical fourth-order Runge-Kutta method, four evaluations.
-* ``"dop853"``: scipy's adaptive Dormand-Prince 8(5,3), the accuracy reference; ``dt`` is then the output spacing.
+* ``"dopri5"``: Dormand-Prince 5(4) with error control: each interval is integrated in as many steps as the
+  tolerances ``rtol`` and ``atol`` need (seven evaluations each), from the last accepted step size; it gives up, with
+  :class:`OutOfDomainError`, after ``engine.MAX_ADAPTIVE_SUBSTEPS`` steps in one interval.
+* ``"dop853"``: scipy's adaptive Dormand-Prince 8(5,3) on the engine's derivative, the accuracy reference.
 """
 
 from __future__ import annotations
 
-import ctypes
-import functools
 import math
-import os
-import platform
-from collections.abc import Callable
 
 import numpy as np
 
 from rolling_disk_env.dynamics import (
-    DEFAULT_PARAMS,
     LEAN_LIMIT,
+    LEAN_MODEL,
     MODELS,
     DiskParams,
     Model,
     OutOfDomainError,
     check_states,
     check_torques,
+    disk_rows,
+    is_number,
 )
 
-_VELOCITIES = 3
-_M_TRIM_THRESHOLD = -1
-"""glibc's mallopt parameter number for the trim threshold."""
-
-
-def euler(derivative, x, dt, args):
-    """Explicit Euler step (scalar)."""
-    k = derivative(x, x, 0.0, *args)
-    return [a + dt * b for a, b in zip(x, k)]
-
-
-def symplectic_euler(derivative, x, dt, args):
-    """Semi-implicit Euler step (scalar): v' = v + dt a(q, v), then q' = q + dt dq/dt(q, v')."""
-    split = len(x) - _VELOCITIES
-    k = derivative(x, x, 0.0, *args)
-    kick = [0.0] * split + list(k[split:])
-    drift = derivative(x, kick, dt, *args)
-    return [a + dt * b for a, b in zip(x[:split], drift[:split])] + [a + dt * b for a, b in zip(x[split:], k[split:])]
-
-
-def rk4(derivative, x, dt, args):
-    """Classical Runge-Kutta step (scalar)."""
-    half = 0.5 * dt
-    k1 = derivative(x, x, 0.0, *args)
-    k2 = derivative(x, k1, half, *args)
-    k3 = derivative(x, k2, half, *args)
-    k4 = derivative(x, k3, dt, *args)
-    sixth = dt / 6.0
-    return [a + sixth * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
-
-
-def padded_rows(*shape: int) -> np.ndarray:
-    """An uninitialized float64 array of ``shape`` whose last axis is padded by one cache line.
-
-    Component-major states put each component in a row of N floats. When N is a power of two the rows of the
-    state, the slopes and the output all start at the same offset modulo the cache's set size and evict each other:
-    a right-hand side at N = 4096 then takes 425 us instead of 220 us, depending on where the arrays landed.
-    """
-    return np.empty((*shape[:-1], shape[-1] + 8))[..., : shape[-1]]
-
-
-@functools.cache
-def retain_freed_heap() -> bool:
-    """Asks glibc's malloc to keep up to 64 MiB of freed heap instead of returning it to the OS at once.
-
-    A batched right-hand side makes about 25 numpy temporaries of N floats and frees them; with glibc's default
-    (trim above 128 KiB, adjusted dynamically) the heap is trimmed after each call and the next call page-faults
-    the memory back in: at N = 4096 an evaluation then takes 430 us instead of 220 us. This sets
-    ``M_TRIM_THRESHOLD`` (what the environment variable ``MALLOC_TRIM_THRESHOLD_`` sets, which is left alone if
-    the user set it) once per process. Returns whether it was set; elsewhere than glibc it does nothing.
-    """
-    if "MALLOC_TRIM_THRESHOLD_" in os.environ or platform.libc_ver()[0] != "glibc":
-        return False
-    try:
-        libc = ctypes.CDLL(None)
-        return bool(libc.mallopt(_M_TRIM_THRESHOLD, 64 * 2**20))
-    except (OSError, AttributeError):
-        return False
-
-
-def workspace(shape: tuple[int, ...]) -> np.ndarray:
-    """Scratch memory for the batched steps on states of ``shape`` = (size, N): four slopes.
-
-    Reusing it matters: fresh arrays of this size are page-faulted in on every step, which costs more than the
-    arithmetic (measured: 2.8M against 4.7M disk-steps/s for RK4 at N = 4096). For the same reason the first call
-    keeps freed heap memory for numpy's temporaries (:func:`retain_freed_heap`).
-    """
-    retain_freed_heap()
-    return padded_rows(4, *shape)
-
-
-def euler_batched(derivative, x, dt, args, work):
-    """Explicit Euler step (batched): updates ``x``, of shape (size, N), in place and returns it."""
-    k = derivative(x, x, 0.0, *args, work[0])
-    k *= dt
-    x += k
-    return x
-
-
-def symplectic_euler_batched(derivative, x, dt, args, work):
-    """Semi-implicit Euler step (batched, in place)."""
-    split = x.shape[0] - _VELOCITIES
-    k = derivative(x, x, 0.0, *args, work[0])
-    k[:split] = 0.0
-    drift = derivative(x, k, dt, *args, work[1])
-    drift[split:] = k[split:]
-    drift *= dt
-    x += drift
-    return x
-
-
-def rk4_batched(derivative, x, dt, args, work):
-    """Classical Runge-Kutta step (batched, in place)."""
-    half = 0.5 * dt
-    k1 = derivative(x, x, 0.0, *args, work[0])
-    k2 = derivative(x, k1, half, *args, work[1])
-    k3 = derivative(x, k2, half, *args, work[2])
-    k4 = derivative(x, k3, dt, *args, work[3])
-    k2 += k3
-    k2 *= 2.0
-    k2 += k1
-    k2 += k4
-    k2 *= dt / 6.0
-    x += k2
-    return x
-
-
-STEPS: dict[str, tuple[Callable, Callable]] = {
-    "euler": (euler, euler_batched),
-    "symplectic_euler": (symplectic_euler, symplectic_euler_batched),
-    "rk4": (rk4, rk4_batched),
-}
-"""Fixed-step methods: name -> (scalar step, batched step)."""
+ENGINE_METHODS = ("euler", "symplectic_euler", "rk4", "dopri5")
+"""The methods the compiled engine integrates (their index is the engine's code for them)."""
+METHODS = (*ENGINE_METHODS, "dop853")
 EVALUATIONS_PER_STEP = {"euler": 1, "symplectic_euler": 2, "rk4": 4}
+"""Derivative evaluations per step of the fixed-step methods (the cost unit of the benchmarks)."""
 
 
-def scalar_step(method: str, model: Model) -> Callable:
-    """The fastest step of a fixed-step ``method`` for one disk of ``model``: ``step(x, dt, *args) -> x_next``.
+class RollingContactError(OutOfDomainError):
+    """The contact stopped rolling without slipping: the disk slipped or lifted off the plane.
 
-    For ``"rk4"`` that is the model's generated step with its stages written out (``model.scalar_rk4``, the same
-    arithmetic as :func:`rk4`, about 1.6x faster); the other methods call their step function above.
+    Attributes:
+        time: simulation time (s).
+        reason: ``"slipped"`` (the contact needs more friction than ``friction_coefficient``) or ``"lifted_off"``
+            (the normal force vanished).
+        required_friction: ``|lambda| / N`` there (inf once N <= 0).
+        normal_force: N (N).
     """
-    if method == "rk4":
-        return model.scalar_rk4
-    generic, derivative = STEPS[method][0], model.scalar
 
-    def step(x, dt, *args):
-        return generic(derivative, x, dt, args)
-
-    return step
-
-
-METHODS = (*STEPS, "dop853")
+    def __init__(self, message: str, time: float, reason: str, required_friction: float, normal_force: float):
+        super().__init__(message, time=time)
+        self.reason = reason
+        self.required_friction = required_friction
+        self.normal_force = normal_force
 
 
 def _domain_error(time: float, theta) -> OutOfDomainError:
@@ -188,10 +72,40 @@ def _domain_error(time: float, theta) -> OutOfDomainError:
     )
 
 
+def _contact_check(system: Model, rows: np.ndarray, torques, disks, friction: float, time: float) -> None:
+    """Raises :class:`RollingContactError` if a disk has lifted off, or slipped under ``friction``."""
+    from rolling_disk_env import engine
+
+    full = rows
+    if system is LEAN_MODEL:  # |lambda| and N depend on the lean state only
+        full = np.zeros((rows.shape[0], 8))
+        full[:, [3, 5, 6, 7]] = rows
+    values = np.empty((rows.shape[0], 5))
+    engine.diagnostics(full, torques, disks, values)
+    normal, required = values[:, 3], values[:, 4]
+    lifted = np.flatnonzero(~(normal > 0))
+    slipped = np.flatnonzero(required > friction)
+    if lifted.size or slipped.size:
+        i = int(lifted[0] if lifted.size else slipped[0])
+        reason = "lifted_off" if lifted.size else "slipped"
+        cause = (
+            "the normal force vanished: the disk lifted off the plane"
+            if lifted.size
+            else f"the contact needs a friction coefficient of {required[i]:.6g} > friction_coefficient = {friction}"
+        )
+        raise RollingContactError(
+            f"at t = {time:.6g} s {cause} (N = {normal[i]:.6g} N, required friction |lambda| / N = {required[i]:.6g})",
+            time=time,
+            reason=reason,
+            required_friction=float(required[i]),
+            normal_force=float(normal[i]),
+        )
+
+
 def _output_times(duration: float, dt: float) -> np.ndarray:
-    if not (math.isfinite(duration) and duration > 0):
+    if not (is_number(duration) and math.isfinite(duration) and duration > 0):
         raise ValueError(f"duration must be a finite number > 0 (s), got {duration!r}")
-    if not (math.isfinite(dt) and 0 < dt <= duration):
+    if not (is_number(dt) and math.isfinite(dt) and 0 < dt <= duration):
         raise ValueError(f"dt must be a finite number in (0, duration = {duration}] (s), got {dt!r}")
     steps = math.ceil(duration / dt - 1e-9)
     times = np.arange(steps + 1) * dt
@@ -209,112 +123,121 @@ def simulate(
     model: str = "full",
     rtol: float = 1e-10,
     atol: float = 1e-10,
+    friction_coefficient: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Integrates the rolling disk from ``state0`` for ``duration`` seconds.
 
     Args:
-        state0: initial state, shape (size,) for one disk or (N, size) for N disks at once (the batched path); size 8
-            for the full model, 4 for the lean model ``(theta, dphi, dtheta, dpsi)``.
+        state0: initial state, shape (size,) for one disk or (N, size) for N disks at once; size 8 for the full
+            model, 4 for the lean model ``(theta, dphi, dtheta, dpsi)``.
         duration: simulated time, s.
         dt: step of the fixed-step methods and spacing of the output times, s. The last step is shortened to end
             exactly at ``duration``.
         method: one of :data:`METHODS`.
         torque: None (zero), a constant ``[tau_spin, tau_steer]`` (N m) of shape (2,) or (N, 2), or a callable
-            ``torque(t, state)`` returning one; it is sampled at the start of each step and held over it (with
-            ``"dop853"``, it is called at every evaluation).
+            ``torque(t, state)`` returning one; it is sampled at the start of each output interval and held over it
+            (with ``"dop853"``, it is called at every evaluation).
         params: the disk; default ``DiskParams()``.
         model: ``"full"`` or ``"lean"`` (the reduced model, with c1, c2, phi and psi left out).
-        rtol: relative tolerance of ``"dop853"``.
-        atol: absolute tolerance of ``"dop853"``.
+        rtol: relative tolerance of ``"dopri5"`` and ``"dop853"``.
+        atol: absolute tolerance of ``"dopri5"`` and ``"dop853"``.
+        friction_coefficient: if set, the contact's friction coefficient mu: the simulation stops with
+            :class:`RollingContactError` at the first output time where the contact needs more
+            (``required_friction > mu``). It always stops where the normal force vanishes (lift-off).
 
     Returns:
         ``(times, states)``: times of shape (T,) from 0 to ``duration``, states of shape (T, size) or (T, N, size).
 
     Raises:
         ValueError: a bad argument (shape, finiteness, unknown method or model).
-        OutOfDomainError: the lean reaches ``LEAN_LIMIT`` or the state stops being finite; names the time and theta.
+        OutOfDomainError: the lean reaches ``LEAN_LIMIT``, the state stops being finite or ``"dopri5"`` gives up;
+            names the time and theta.
+        RollingContactError: (an ``OutOfDomainError``) the disk slipped or lifted off; names the time, the required
+            friction and the normal force.
     """
     if model not in MODELS:
         raise ValueError(f"model must be one of {sorted(MODELS)}, got {model!r}")
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    for name, value in (("rtol", rtol), ("atol", atol)):
+        if not (is_number(value) and 0 < value < 1):
+            raise ValueError(f"{name} must be a number in (0, 1), got {value!r}")
+    if friction_coefficient is not None and not (is_number(friction_coefficient) and friction_coefficient > 0):
+        raise ValueError(f"friction_coefficient must be None or a number > 0, got {friction_coefficient!r}")
+    friction = math.inf if friction_coefficient is None else float(friction_coefficient)
     system = MODELS[model]
     x0 = check_states(state0, system, name="state0")
-    times = _output_times(float(duration), float(dt))
-    constants = (params or DEFAULT_PARAMS).constants
+    times = _output_times(duration, dt)
     batch = None if x0.ndim == 1 else x0.shape[0]
+    rows = np.ascontiguousarray(x0.reshape(-1, system.size))
+    disks = disk_rows(params, rows.shape[0])
     if callable(torque):
         policy = torque
 
         def torque_at(time: float, x: np.ndarray) -> np.ndarray:
-            return check_torques(policy(time, x), batch)
+            return check_torques(policy(time, x.reshape(x0.shape)), batch)
     else:
         constant = check_torques(torque, batch)
 
         def torque_at(_time: float, _x: np.ndarray) -> np.ndarray:
             return constant
 
+    _contact_check(system, rows, torque_at(0.0, rows), disks, friction, 0.0)
     if method == "dop853":
-        return times, _simulate_adaptive(system, x0, times, torque_at, constants, rtol, atol)
-    if x0.ndim == 1:
-        return times, _simulate_scalar(system, scalar_step(method, system), x0, times, torque_at, constants)
-    return times, _simulate_batched(system, STEPS[method][1], x0, times, torque_at, constants)
+        states = _simulate_dop853(system, rows, times, torque_at, disks, rtol, atol, friction)
+    else:
+        states = _simulate_engine(
+            system, ENGINE_METHODS.index(method), rows, times, torque_at, disks, rtol, atol, friction
+        )
+    return times, states.reshape(len(times), *x0.shape)
 
 
-def _simulate_scalar(system: Model, step, x0, times, torque, constants) -> np.ndarray:
-    states = np.empty((len(times), system.size))
-    states[0] = x0
-    x = x0.tolist()
+def _simulate_engine(system: Model, method: int, rows, times, torque_at, disks, rtol, atol, friction) -> np.ndarray:
+    from rolling_disk_env import engine
+
+    states = np.empty((len(times), *rows.shape))
+    states[0] = rows
+    x = rows.copy()
+    sizes = np.full(len(x), times[1] - times[0])
+    status = np.zeros(len(x), dtype=np.int8)
     for i in range(1, len(times)):
-        u = torque(times[i - 1], states[i - 1])
-        args = (float(u[0, 0]), float(u[1, 0]), *constants)
-        try:
-            x = step(x, times[i] - times[i - 1], *args)
-        except (OverflowError, ZeroDivisionError):
-            raise _domain_error(times[i], math.nan) from None
-        theta = x[system.lean_index]
-        if not (abs(theta) < LEAN_LIMIT and all(map(math.isfinite, x))):
-            raise _domain_error(times[i], theta)
+        torques = torque_at(times[i - 1], x)
+        engine.advance(method, x, torques, disks, times[i] - times[i - 1], sizes, rtol, atol, status)
+        if status.any():
+            if (status == engine.SUBSTEP_LIMIT).any():
+                raise OutOfDomainError(
+                    f"dopri5 did not reach t = {times[i]:.6g} s in {engine.MAX_ADAPTIVE_SUBSTEPS} steps under "
+                    f"rtol = {rtol}, atol = {atol}: loosen the tolerances or reduce dt",
+                    time=times[i],
+                )
+            raise _domain_error(times[i], x[:, system.lean_index])
+        _contact_check(system, x, torques, disks, friction, times[i])
         states[i] = x
     return states
 
 
-def _simulate_batched(system: Model, step, x0, times, torque, constants) -> np.ndarray:
-    states = np.empty((len(times), *x0.shape))
-    states[0] = x0
-    x = padded_rows(*x0.T.shape)
-    x[:] = x0.T
-    work = workspace(x.shape)
-    with np.errstate(all="ignore"):
-        for i in range(1, len(times)):
-            u = torque(times[i - 1], states[i - 1])
-            step(system.batched, x, times[i] - times[i - 1], (u[0], u[1], *constants), work)
-            theta = x[system.lean_index]
-            if not (np.all(np.abs(theta) < LEAN_LIMIT) and np.all(np.isfinite(x))):
-                raise _domain_error(times[i], theta)
-            states[i] = x.T
-    return states
-
-
-def _simulate_adaptive(system: Model, x0, times, torque, constants, rtol, atol) -> np.ndarray:
+def _simulate_dop853(system: Model, rows, times, torque_at, disks, rtol, atol, friction) -> np.ndarray:
     from scipy.integrate import solve_ivp
 
-    shape = x0.reshape(-1, system.size).T.shape
+    from rolling_disk_env import engine
+
+    shape = rows.shape
 
     def rhs(time, flat):
         x = flat.reshape(shape)
-        u = torque(time, x.T.reshape(x0.shape))
-        return system.batched(x, x, 0.0, u[0], u[1], *constants, np.empty(shape)).ravel()
+        out = np.empty(shape)
+        engine.derivatives(x, torque_at(time, x), disks, out)
+        return out.ravel()
 
     def leaves_domain(_time, flat):
-        return LEAN_LIMIT - np.max(np.abs(flat.reshape(shape)[system.lean_index]))
+        return LEAN_LIMIT - np.max(np.abs(flat.reshape(shape)[:, system.lean_index]))
 
     leaves_domain.terminal = True
     with np.errstate(all="ignore"):
         solution = solve_ivp(
             rhs,
             (times[0], times[-1]),
-            x0.reshape(-1, system.size).T.ravel(),
+            rows.ravel(),
             method="DOP853",
             t_eval=times,
             events=leaves_domain,
@@ -323,7 +246,10 @@ def _simulate_adaptive(system: Model, x0, times, torque, constants, rtol, atol) 
         )
     if solution.status == 1:
         time = float(solution.t_events[0][0])
-        raise _domain_error(time, solution.y_events[0][0].reshape(shape)[system.lean_index])
+        raise _domain_error(time, solution.y_events[0][0].reshape(shape)[:, system.lean_index])
     if solution.status != 0 or not np.all(np.isfinite(solution.y)):
         raise _domain_error(float(solution.t[-1]), math.nan)
-    return solution.y.reshape(*shape, -1).transpose(2, 1, 0).reshape(len(times), *x0.shape)
+    states = solution.y.T.reshape(len(times), *shape)
+    for time, x in zip(times, states):
+        _contact_check(system, np.ascontiguousarray(x), torque_at(time, x), disks, friction, time)
+    return states

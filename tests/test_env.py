@@ -89,7 +89,9 @@ def test_step_types_are_the_ones_sb3_accepts():
     assert observation.dtype == np.float32 and observation in env.observation_space
     assert info["state"].dtype == np.float64 and info["state"].shape == (8,)
     assert type(info["is_success"]) is bool
-    assert set(info["rewards"]) == set(env.unwrapped.task.reward_weights)
+    assert {key for key in info if key.startswith("reward_")} == {f"reward_{t}" for t in env.unwrapped.task.reward_weights}
+    assert reward == sum(w * info[f"reward_{t}"] for t, w in env.unwrapped.task.reward_weights.items())
+    assert not any(isinstance(value, dict) for value in info.values())  # flat, for batching wrappers
     assert env.unwrapped.dt == 0.02 and env.metadata["render_fps"] == 50
 
 
@@ -122,8 +124,9 @@ def test_torques_follow_the_actions_and_are_clipped():
     env.reset(seed=0, options={"state": [0, 0, 0, 0, 0, 0, 0, 0]})
     env.step(np.array([3.0], dtype=np.float32))
     # Pure steer from rest, upright: ddpsi = 4 tau / (m r^2) with tau clipped to 10 N m, so dpsi = 8 dt.
-    assert env._state[7] == pytest.approx(4 * 10.0 / 5.0 * 0.02)
-    assert env._state[5] == pytest.approx(0.0)
+    state = env._batch.states[0]
+    assert state[7] == pytest.approx(4 * 10.0 / 5.0 * 0.02)
+    assert state[5] == pytest.approx(0.0)
 
 
 @pytest.mark.parametrize(

@@ -2,20 +2,31 @@
 
 from __future__ import annotations
 
+import inspect
+import itertools
 import math
 from dataclasses import dataclass, fields
 
 import numpy as np
 from gymnasium import spaces
 
-from rolling_disk_env.dynamics import DEFAULT_PARAMS, DiskParams, check_states
-from rolling_disk_env.integrators import STEPS
+from rolling_disk_env import engine
+from rolling_disk_env.dynamics import DEFAULT_PARAMS, DiskParams, check_states, is_number, number_pair
 from rolling_disk_env.tasks import TASKS, Task
-from rolling_disk_env.tasks.base import SCALAR_MATH
 
 ACTUATORS = ("spin", "steer")
 """Torque inputs, in the order of the dynamics' ``(tau_spin, tau_steer)``."""
 RESET_OPTIONS = frozenset({"state"})
+
+
+def task_option_names(task_class: type[Task]) -> list[str]:
+    """The ``task_options`` a task class takes: the keyword arguments of its ``__init__`` and its bases'."""
+    names = set()
+    for klass in task_class.__mro__[:-1]:  # without object
+        if "__init__" in vars(klass):
+            parameters = inspect.signature(klass.__init__).parameters.values()
+            names |= {p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    return sorted(names - {"self"})
 
 
 @dataclass(frozen=True)
@@ -27,6 +38,9 @@ class EnvConfig:
     dt: float
     integrator: str
     substeps: int
+    rtol: float
+    atol: float
+    friction_coefficient: float | None
     max_torque: tuple[float, float]
     params: DiskParams
     params_ranges: dict[str, tuple[float, float]]
@@ -40,18 +54,32 @@ class EnvConfig:
         dt: float = 0.02,
         integrator: str = "rk4",
         substeps: int = 1,
+        rtol: float = 1e-6,
+        atol: float = 1e-8,
+        friction_coefficient: float | None = None,
         max_spin_torque: float = 5.0,
         max_steer_torque: float = 10.0,
         params: DiskParams | None = None,
         params_ranges: dict[str, tuple[float, float]] | None = None,
         initial_ranges: dict[str, tuple[float, float]] | None = None,
         task_options: dict | None = None,
+        **unknown,
     ) -> EnvConfig:
-        """Checks every argument and raises ``ValueError`` naming the first bad one."""
+        """Checks every argument and raises ``ValueError`` naming the first bad one (``TypeError`` for an unknown
+        keyword argument, listing the valid ones)."""
+        if unknown:
+            valid = sorted([*(inspect.signature(cls.from_kwargs).parameters.keys() - {"unknown"}), "render_mode"])
+            raise TypeError(f"unknown keyword argument(s) {sorted(unknown)} of RollingDisk-v0; valid: {valid}")
         if isinstance(task, Task):
             if task_options:
                 raise ValueError("task_options apply to a task given by name, not to a Task instance")
         elif task in TASKS:
+            if not isinstance(task_options, (dict, type(None))):
+                raise ValueError(f"task_options must be a dict of the task's arguments, got {task_options!r}")
+            valid = task_option_names(TASKS[task])
+            unknown_options = sorted((task_options or {}).keys() - set(valid))
+            if unknown_options:
+                raise ValueError(f"unknown task option(s) {unknown_options} for task {task!r}; options: {valid}")
             task = TASKS[task](**(task_options or {}))
         else:
             raise ValueError(f"unknown task {task!r}; tasks: {sorted(TASKS)}")
@@ -62,33 +90,48 @@ class EnvConfig:
         if unknown or len(set(actuators)) != len(actuators):
             raise ValueError(f"actuators must be distinct names from {ACTUATORS}, got {actuators!r}")
         actuators = tuple(a for a in ACTUATORS if a in actuators)
-        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+        if not (is_number(dt) and math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a finite number > 0 (s), got {dt!r}")
-        if integrator not in STEPS:
-            raise ValueError(f"integrator must be a fixed-step method, one of {sorted(STEPS)}, got {integrator!r}")
-        if not (isinstance(substeps, int) and substeps >= 1):
+        if integrator not in engine.METHODS:
+            raise ValueError(f"integrator must be one of {list(engine.METHODS)}, got {integrator!r}")
+        for name, value in (("rtol", rtol), ("atol", atol)):
+            if not (is_number(value) and 0 < value < 1):
+                raise ValueError(f"{name} must be a number in (0, 1), got {value!r}")
+        if friction_coefficient is not None and not (
+            is_number(friction_coefficient) and 0 < friction_coefficient < math.inf
+        ):
+            raise ValueError(f"friction_coefficient must be None or a finite number > 0, got {friction_coefficient!r}")
+        if not (isinstance(substeps, (int, np.integer)) and not isinstance(substeps, bool) and substeps >= 1):
             raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
         for name, value in (("max_spin_torque", max_spin_torque), ("max_steer_torque", max_steer_torque)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            if not (is_number(value) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0 (N m), got {value!r}")
         params = params or DEFAULT_PARAMS
         if not isinstance(params, DiskParams):
             raise ValueError(f"params must be a DiskParams, got {type(params).__name__}")
         checked_ranges = {}
         names = [f.name for f in fields(DiskParams)]
+        if not isinstance(params_ranges, (dict, type(None))):
+            raise ValueError(f"params_ranges must be a dict of (low, high) pairs, got {params_ranges!r}")
         for key, bounds in (params_ranges or {}).items():
             if key not in names:
                 raise ValueError(f"unknown key {key!r} in params_ranges; keys: {names}")
-            low, high = (float(b) for b in bounds)
+            low, high = number_pair(bounds, f"params_ranges[{key!r}]")
             if not (math.isfinite(high) and 0 < low <= high):
                 raise ValueError(f"params_ranges[{key!r}] must satisfy 0 < low <= high, got {bounds!r}")
             checked_ranges[key] = (low, high)
+        # The task's goal must exist for every disk drawn: check the corners of the disks' ranges.
+        for corner in itertools.product(*(checked_ranges.get(name, (getattr(params, name),) * 2) for name in names)):
+            task.check_disk(DiskParams(*corner))
         return cls(
             task=task,
             actuators=actuators,
             dt=float(dt),
             integrator=integrator,
-            substeps=substeps,
+            substeps=int(substeps),
+            rtol=float(rtol),
+            atol=float(atol),
+            friction_coefficient=None if friction_coefficient is None else float(friction_coefficient),
             max_torque=(float(max_spin_torque), float(max_steer_torque)),
             params=params,
             params_ranges=checked_ranges,
@@ -106,53 +149,44 @@ class EnvConfig:
         return spaces.Box(-high, high, dtype=np.float32)
 
     @property
-    def actuator_rows(self) -> list[int]:
-        """For each action component, its row in ``(tau_spin, tau_steer)``."""
-        return [ACTUATORS.index(name) for name in self.actuators]
+    def actuators_array(self) -> np.ndarray:
+        """For each action component: its row in ``(tau_spin, tau_steer)`` and the torque (N m) of action +1."""
+        rows = [ACTUATORS.index(name) for name in self.actuators]
+        return np.array([[row, self.max_torque[row]] for row in rows], dtype=np.float64).reshape(-1, 2)
 
     @property
-    def actuator_limits(self) -> list[float]:
-        """For each action component, the torque (N m) of action +1."""
-        return [self.max_torque[row] for row in self.actuator_rows]
+    def disk_ranges(self) -> np.ndarray:
+        """``(m, g, r)`` rows of ``(low, high, drawn)``: drawn ones from ``params_ranges``, the others fixed."""
+        rows = []
+        for name, value in zip(("mass", "gravity", "radius"), self.params.constants):
+            low, high = self.params_ranges.get(name, (value, value))
+            rows.append((low, high, float(name in self.params_ranges)))
+        return np.array(rows, dtype=np.float64)
 
     @property
-    def torque_scale(self) -> np.ndarray:
-        """Matrix mapping a normalized action (n,) to ``(tau_spin, tau_steer)`` in N m, shape (2, n)."""
-        scale = np.zeros((2, len(self.actuators)))
-        scale[self.actuator_rows, range(len(self.actuators))] = self.actuator_limits
-        return scale
+    def ranges(self) -> np.ndarray:
+        """``(low, high)`` rows of the task's goal ranges, then its initial-state ranges, in their keys' order."""
+        ranges = [*self.task.goal_ranges.values(), *self.initial_ranges.values()]
+        return np.array(ranges, dtype=np.float64).reshape(-1, 2)
 
     @property
     def draws(self) -> int:
         """How many uniform numbers an episode draws: one per range of the disk, the goal and the initial state."""
-        return len(self.params_ranges) + len(self.task.goal_ranges) + len(self.initial_ranges)
+        return len(self.params_ranges) + len(self.ranges)
 
-    def episode(self, uniforms, xp) -> tuple[tuple, dict, list]:
-        """An episode's disk constants ``(m, g, r)``, goal and initial state, from :attr:`draws` uniforms in [0, 1).
-
-        The uniforms are floats for one episode (``xp`` is then ``tasks.base.SCALAR_MATH``) or rows of shape (n,)
-        for n episodes (``xp`` is ``tasks.base.BATCHED_MATH``), taken in this order: ``params_ranges``, the task's
-        ``goal_ranges``, ``initial_ranges``, each in its keys' order; a value is ``low + (high - low) u``.
-        """
-        values = iter(uniforms)
-
-        def scale(ranges: dict) -> dict:
-            return {key: low + (high - low) * next(values) for key, (low, high) in ranges.items()}
-
-        disk = scale(self.params_ranges)
-        mass, gravity, radius = self.params.constants
-        constants = (disk.get("mass", mass), disk.get("gravity", gravity), disk.get("radius", radius))
-        goal = self.task.goal(scale(self.task.goal_ranges), constants, xp)
-        return constants, goal, self.task.initial_state(scale(self.initial_ranges), constants, goal, xp)
-
-    def sample_episode(self, rng: np.random.Generator, options: dict | None) -> tuple[DiskParams, dict, list[float]]:
-        """Draws one episode's disk, goal and initial state (floats) with a single call of ``rng``;
-        ``options["state"]`` then sets the state exactly."""
-        state = self.reset_state(options)
-        (mass, gravity, radius), goal, drawn = self.episode(rng.random(self.draws).tolist(), SCALAR_MATH)
-        params = DiskParams(mass=mass, radius=radius, gravity=gravity) if self.params_ranges else self.params
-        goal = {key: float(value) for key, value in goal.items()}
-        return params, goal, [float(v) for v in drawn] if state is None else state.tolist()
+    def engine_config(self, max_episode_steps: int | None) -> np.ndarray:
+        """The ``config`` array of the engine's steps (its layout: ``engine.PERIOD`` and the others)."""
+        values = {
+            engine.PERIOD: self.dt,
+            engine.SUBSTEPS: self.substeps,
+            engine.RTOL: self.rtol,
+            engine.ATOL: self.atol,
+            engine.FRICTION: math.inf if self.friction_coefficient is None else self.friction_coefficient,
+            engine.MAX_STEPS: max_episode_steps or 0,
+            engine.SUCCESS_RULE: self.task.success,
+            engine.SUCCESS_BOUND: self.task.success_bound,
+        }
+        return np.array([values[key] for key in sorted(values)], dtype=np.float64)
 
     def reset_state(self, options: dict | None, num_envs: int | None = None) -> np.ndarray | None:
         """The checked initial state(s) ``options["state"]`` of shape (8,), or (num_envs, 8) for a vector env; or
@@ -168,7 +202,7 @@ class EnvConfig:
         expected = (8,) if num_envs is None else (num_envs, 8)
         if state.shape != expected:
             raise ValueError(f'options["state"] must have shape {expected}, got {state.shape}')
-        fallen = np.flatnonzero(self.task.fallen(np.atleast_2d(state).T, np))
+        fallen = np.flatnonzero(np.abs(np.atleast_2d(state)[:, 3]) > self.task.fall_lean)
         if fallen.size:
             theta = np.atleast_2d(state)[fallen[0], 3]
             raise ValueError(

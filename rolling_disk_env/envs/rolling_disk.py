@@ -1,4 +1,4 @@
-"""RollingDisk-v0: one disk, stepped through the scalar path of the generated equations."""
+"""RollingDisk-v0: one disk, stepped by the compiled engine (a batch of one: the vector env's kernels)."""
 
 from __future__ import annotations
 
@@ -9,14 +9,15 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from rolling_disk_env._generated import scalar
-from rolling_disk_env.dynamics import FULL_MODEL, LEAN_LIMIT
+from rolling_disk_env import engine
+from rolling_disk_env.dynamics import DiskParams
+from rolling_disk_env.envs.batch import DiskBatch
 from rolling_disk_env.envs.config import EnvConfig, action_error
-from rolling_disk_env.integrators import scalar_step
-from rolling_disk_env.tasks.base import SCALAR_MATH
 
 TRACK_LENGTH = 5000
 """Points of the centre's track kept for rendering."""
+MAX_RENDER_FPS = 1000
+"""Frames per second a display is asked for at most (``metadata["render_fps"]`` is ``1 / dt`` within [1, this])."""
 
 
 class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -124,107 +125,77 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
-        self.metadata = {**self.metadata, "render_fps": max(1, round(1 / self.config.dt))}
+        fps = min(MAX_RENDER_FPS, max(1, round(1 / self.config.dt)))
+        self.metadata = {**self.metadata, "render_fps": fps}
         self.task = self.config.task
         self.dt = self.config.dt
         self.action_space = self.config.action_space
         self.observation_space = self.config.observation_space
-        self._step = scalar_step(self.config.integrator, FULL_MODEL)
-        self._substeps = self.config.substeps
-        self._substep = self.config.dt / self.config.substeps
-        self._actuator_rows = self.config.actuator_rows
-        self._actuator_limits = self.config.actuator_limits
-        self._obs_bounds = (self.observation_space.low.tolist(), self.observation_space.high.tolist())
+        self._batch = DiskBatch(self.config, 1, None)
+        self._out = self._batch.outputs()
+        self._stepping = np.zeros(1, dtype=bool)
+        self._reset_mask = np.ones(1, dtype=bool)
+        self._term_keys = [f"reward_{name}" for name in self.task.reward_weights]
         self._renderer = None
-        self._state: list[float] | None = None
+        self._track = None
+        self.params: DiskParams | None = None
+        self.goal: dict[str, float] = {}
+        self._started = False
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        self.params, self.goal, self._state = self.config.sample_episode(self.np_random, options)
-        self._constants = self.params.constants
-        self._error_sums = [0.0] if self.task.success_bound is not None else None
-        self._track = None if self.render_mode is None else deque([(self._state[0], self._state[1])], TRACK_LENGTH)
-        self._torque = (0.0, 0.0)
-        self._elapsed = 0
+        state = self.config.reset_state(options)
+        batch = self._batch
+        batch.uniforms[0] = self.np_random.random(self.config.draws)
+        batch.reset(self._reset_mask, self._out, states=None if state is None else state[None])
+        self._started = True
+        m, g, r = batch.disks[0].tolist()
+        self.params = DiskParams(mass=m, radius=r, gravity=g) if self.config.params_ranges else self.config.params
+        self.goal = dict(zip(self.task.goal_names, batch.goals[0].tolist()))
+        self._track = None if self.render_mode is None else deque([tuple(batch.states[0, :2])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
-        return self._observation(), self._info({}, terminated=False)
+        return self._out.observations[0].copy(), self._info(terminated=False, stepped=False)
 
     def step(self, action):
-        if self._state is None:
+        if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
-        torque, effort = self._torques(action)
-        args = (*torque, *self._constants)
-        x = self._state
-        try:
-            for _ in range(self._substeps):
-                x = self._step(x, self._substep, *args)
-            in_domain = abs(x[3]) < LEAN_LIMIT and math.isfinite(sum(x))
-        except (OverflowError, ZeroDivisionError):
-            in_domain = False
-        if in_domain:
-            self._state = x
-        else:
-            x = self._state
-        self._torque = torque
-        self._elapsed += 1
+        actions = self._actions(action)
+        out = self._out
+        if self._batch.step(actions, self._stepping, out) >= 0:
+            raise ValueError(f"action must be finite numbers, got {action!r}")
+        terminated, truncated, _ = out.flags[0].tolist()
+        info = self._info(terminated, stepped=True)
         if self._track is not None:
-            self._track.append((x[0], x[1]))
-        terms = self.task.reward_terms(x, effort, self.goal, SCALAR_MATH)
-        terminated = not in_domain or self.task.fallen(x, SCALAR_MATH)
-        if self._error_sums is not None:
-            self._error_sums.append(self._error_sums[-1] + self.task.tracking_error(x, self.goal, SCALAR_MATH))
-        info = self._info(terms, terminated)
-        if terminated:
-            info["termination"] = "fallen" if in_domain else "out_of_domain"
+            self._track.append(tuple(self._batch.states[0, :2]))
         if self.render_mode == "human":
             self.render()
-        return self._observation(), float(self.task.reward(terms)), terminated, False, info
+        return out.observations[0].copy(), self._out.info[0, engine.REWARD].item(), terminated, False, info
 
-    def _torques(self, action) -> tuple[tuple[float, float], float]:
-        """Checks the action and clips it to [-1, 1]; returns (tau_spin, tau_steer) in N m and the effort term,
-        the mean squared clipped action. Plain floats: this runs every step."""
-        fast = type(action) is np.ndarray and action.dtype.kind in "fi" and action.shape == self.action_space.shape
-        if not fast:
-            error = action_error(action, self.action_space.shape)
-            if error:
-                raise ValueError(error)
-            action = np.asarray(action)
-        values = action.tolist()
-        torque = [0.0, 0.0]
-        effort = 0.0
-        for value, row, limit in zip(values, self._actuator_rows, self._actuator_limits):
-            if not math.isfinite(value):
-                raise ValueError(f"action must be finite numbers, got {action!r}")
-            value = -1.0 if value < -1.0 else (1.0 if value > 1.0 else value)
-            torque[row] = limit * value
-            effort += value * value
-        return (torque[0], torque[1]), effort / len(values) if values else 0.0
+    def _actions(self, action) -> np.ndarray:
+        """The action as the engine takes it, a row of float32 (finiteness is checked by the engine)."""
+        if type(action) is np.ndarray and action.dtype == np.float32 and action.shape == self.action_space.shape:
+            return action.reshape(1, -1)
+        error = action_error(action, self.action_space.shape)
+        if error:
+            raise ValueError(error)
+        return np.asarray(action, dtype=np.float32).reshape(1, -1)
 
-    def _observation(self) -> np.ndarray:
-        components = self.task.observe(self._state, self.goal, SCALAR_MATH)
-        return np.array(
-            [low if v < low else (high if v > high else v) for v, low, high in zip(components, *self._obs_bounds)],
-            dtype=np.float32,
-        )
-
-    def _info(self, terms: dict, terminated: bool) -> dict:
-        x = self._state
-        if self._error_sums is None:
-            success = not terminated
-        else:
-            steps = len(self._error_sums) - 1
-            half = steps // 2
-            mean_error = (self._error_sums[-1] - self._error_sums[half]) / max(1, steps - half)
-            success = not terminated and mean_error <= self.task.success_bound
-        energy, *contact_force = scalar.diagnostics(x, *self._torque, *self._constants)
-        return {
-            "state": np.array(x),
-            "energy": energy,
-            "contact_force": np.array(contact_force),
-            "rewards": terms,
-            "is_success": success,
+    def _info(self, terminated: bool, stepped: bool) -> dict:
+        values = self._out.info[0].tolist()
+        info = {
+            "state": np.array(values[:8]),
+            "energy": values[engine.ENERGY],
+            "contact_force": np.array(values[engine.LAMBDA1 : engine.LAMBDA2 + 1]),
+            "normal_force": values[engine.NORMAL_FORCE],
+            "required_friction": values[engine.REQUIRED_FRICTION],
+            "is_success": bool(self._out.flags[0, engine.SUCCESS]),
         }
+        if stepped:
+            info.update(zip(self._term_keys, values[engine.TERMS :]))
+        if terminated:
+            info["termination"] = engine.TERMINATIONS[self._out.status[0]]
+        return info
 
     def render(self):
         if self.render_mode is None:
@@ -236,9 +207,15 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             from rolling_disk_env.rendering import DiskRenderer
 
             self._renderer = DiskRenderer(self.render_mode, self.metadata["render_fps"])
-        return self._renderer.draw(self._elapsed * self.dt, self._state, self.params, self.goal, self.task, self._track)
+        time = self._batch.steps[0] * self.dt
+        state = self._batch.states[0].tolist()
+        return self._renderer.draw(time, state, self.params, self.goal, self.task, self._track)
 
     def close(self):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+    def __getstate__(self) -> dict:
+        """Pickles without the renderer (a pygame surface), which the next ``render()`` rebuilds."""
+        return {**self.__dict__, "_renderer": None}

@@ -1,191 +1,211 @@
-"""RollingDisk-v0 for N disks in one numpy batch: the ``vector_entry_point`` of the id."""
+"""RollingDisk-v0 for N disks in one compiled batch: the ``vector_entry_point`` of the ids."""
 
 from __future__ import annotations
 
 from typing import Any, ClassVar
 
+import gymnasium as gym
 import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from rolling_disk_env._generated import batched
-from rolling_disk_env.dynamics import FULL_MODEL, LEAN_LIMIT
+from rolling_disk_env import engine, pcg64
+from rolling_disk_env.envs.batch import DiskBatch, Outputs
 from rolling_disk_env.envs.config import EnvConfig, action_error
-from rolling_disk_env.integrators import STEPS, padded_rows, workspace
-from rolling_disk_env.tasks.base import BATCHED_MATH
 
 
 class RollingDiskVectorEnv(VectorEnv):
-    """N independent rolling disks stepped together through the batched equations.
+    """N independent rolling disks stepped together by the compiled engine.
 
-    Same arguments, spaces, rewards and ``info`` keys as :class:`~rolling_disk_env.envs.RollingDiskEnv` (``info``
-    values are stacked along the first axis; ``"termination"`` comes with its mask ``"_termination"``), plus:
+    Same arguments, spaces, rewards and ``info`` keys as :class:`~rolling_disk_env.envs.RollingDiskEnv`, batched as
+    ``SyncVectorEnv`` batches them: each key with its mask ``_key`` (the reward terms are absent, masked out, for a
+    sub-environment whose info comes from a reset; ``"termination"`` is an object array, None where absent). Plus:
 
     Args:
         num_envs: N.
         max_episode_steps: truncation after this many steps (``gymnasium.make_vec`` passes the id's 500); None for
             no truncation.
+        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default), ``SAME_STEP`` or ``DISABLED``, or its string value:
+            as in ``SyncVectorEnv``. NEXT_STEP: the step after a sub-environment ends resets it, ignores its action
+            and returns its first observation with reward 0. SAME_STEP: the step that ends an episode resets the
+            sub-environment at once and returns the new episode's first observation, with the last one in
+            ``info["final_obs"]`` and the last info in ``info["final_info"]`` (masks ``_final_obs``,
+            ``_final_info``). DISABLED: ended sub-environments must be reset with
+            ``reset(options={"reset_mask": mask})`` before they step again.
 
-    Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)``, as ``SyncVectorEnv`` does, and draws
-    its episodes exactly as a single env with that seed would, so both give the same transitions (to round-off:
-    the batched sine of :mod:`rolling_disk_env.trig` and ``math``'s may differ in the last bit). Autoreset follows
-    Gymnasium's default ``AutoresetMode.NEXT_STEP``: the step after a sub-environment ends resets it, ignores its
-    action and returns its first observation with reward 0. ``reset(options={"state": X})`` takes initial states
-    of shape (N, 8). Rendering is not offered: render one disk with the single env.
+    Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)`` (or ``seed[i]`` from a list), as
+    ``SyncVectorEnv`` does, and draws its episodes exactly as a single env with that seed would: both run the same
+    compiled kernels, so the transitions are equal to the last bit. ``reset(options={"state": X})`` takes initial
+    states of shape (N, 8). A batch of ``engine.PARALLEL_FROM`` disks or more steps on numba's threads. Rendering is
+    not offered: render one disk with the single env.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: None = None, **kwargs):
-        if not (isinstance(num_envs, int) and num_envs >= 1):
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs,
+    ):
+        if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool) and num_envs >= 1):
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        if max_episode_steps is not None and not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
+        if max_episode_steps is not None and not (
+            isinstance(max_episode_steps, (int, np.integer)) and max_episode_steps >= 1
+        ):
             raise ValueError(f"max_episode_steps must be an integer >= 1 or None, got {max_episode_steps!r}")
         if render_mode is not None:
             raise ValueError("the vector env does not render; render a single RollingDisk-v0 instead")
+        try:
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            modes = [mode.value for mode in AutoresetMode]
+            raise ValueError(
+                f"autoreset_mode must be an AutoresetMode or one of {modes}, got {autoreset_mode!r}"
+            ) from None
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.config = EnvConfig.from_kwargs(**kwargs)
         self.task = self.config.task
-        self.num_envs = num_envs
+        self.num_envs = int(num_envs)
         self.max_episode_steps = max_episode_steps
         self.render_mode = None
         self.dt = self.config.dt
         self.single_action_space = self.config.action_space
         self.single_observation_space = self.config.observation_space
-        self.action_space = batch_space(self.single_action_space, num_envs)
-        self.observation_space = batch_space(self.single_observation_space, num_envs)
-        self._step = STEPS[self.config.integrator][1]
-        self._substep = self.config.dt / self.config.substeps
-        self._torque_scale = self.config.torque_scale
-        self._obs_low = self.single_observation_space.low[:, None]
-        self._obs_high = self.single_observation_space.high[:, None]
-        actuators = self.single_action_space.shape[0]
-        self._mean_weights = np.full(actuators, 1.0 / actuators) if actuators else np.zeros(0)
-        self._rngs = [seeding.np_random()[0] for _ in range(num_envs)]
-        self._x = padded_rows(FULL_MODEL.size, num_envs)
-        self._x[:] = 0.0
-        self._previous = padded_rows(FULL_MODEL.size, num_envs)
-        self._work = workspace(self._x.shape)
-        self._constants = np.zeros((3, num_envs))
-        # Without per-episode randomization every disk has the same constants: floats cost half as much as rows.
-        self._shared_constants = None if self.config.params_ranges else self.config.params.constants
-        self._goal: dict[str, np.ndarray] = {}
-        self._torques = np.zeros((2, num_envs))
-        self._elapsed = np.zeros(num_envs, dtype=np.int64)
-        self._autoreset = np.zeros(num_envs, dtype=bool)
-        self._error_sums = np.zeros((num_envs, (max_episode_steps or 1024) + 1))
-        self._index = np.arange(num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._batch = DiskBatch(self.config, self.num_envs, max_episode_steps)
+        self._rngs = np.zeros((self.num_envs, 4), dtype=np.uint64)
+        self._seeded = False
+        self._ended = np.zeros(self.num_envs, dtype=bool)
+        self._none = np.zeros(self.num_envs, dtype=bool)
+        self._observations: np.ndarray | None = None
+        self._term_keys = [f"reward_{name}" for name in self.task.reward_weights]
 
-    def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        options = dict(options or {})
+        mask = self._reset_mask(options.pop("reset_mask", None))
         states = self.config.reset_state(options, self.num_envs)
-        if seed is not None:
-            seeds = [seed + i for i in range(self.num_envs)] if isinstance(seed, int) else list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed must be an int or a list of {self.num_envs} ints, got {seed!r}")
-            self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        self._start_episodes(self._index, states)
-        self._autoreset[:] = False
-        self._torques[:] = 0.0
-        terms = {}
-        return self._observations(), self._infos(terms, np.zeros(self.num_envs, dtype=bool), None)
+        self._seed(seed, mask)
+        out = self._batch.outputs()
+        if self._observations is not None:
+            out.observations[:] = self._observations
+        self._batch.reset(mask, out, self._rngs, states)
+        self._ended &= ~mask
+        self._observations = out.observations
+        return out.observations.copy(), self._infos(out, mask, self._none)
 
-    def _start_episodes(self, indices: np.ndarray, states: np.ndarray | None = None) -> None:
-        """Starts new episodes in the sub-environments ``indices``, each drawn from its own generator with the
-        single env's draws and formulas; ``states`` (shape (len(indices), 8)) then sets the states exactly."""
-        draws = self.config.draws
-        uniforms = np.array([self._rngs[i].random(draws) for i in indices.tolist()]).reshape(len(indices), draws)
-        constants, goal, state = self.config.episode(uniforms.T, BATCHED_MATH)
-        for row, value in enumerate(state if states is None else states.T):
-            self._x[row, indices] = value
-        if self._shared_constants is None:
-            for row, value in enumerate(constants):
-                self._constants[row, indices] = value
-        for key, value in goal.items():
-            self._goal.setdefault(key, np.zeros(self.num_envs))[indices] = value
-        self._elapsed[indices] = 0
-        self._error_sums[indices, 0] = 0.0
+    def _reset_mask(self, mask) -> np.ndarray:
+        """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it; all envs when it is absent."""
+        if mask is None:
+            return np.ones(self.num_envs, dtype=bool)
+        if self._observations is None:
+            raise ValueError('options["reset_mask"] resets some sub-environments: reset all of them first')
+        if not isinstance(mask, np.ndarray) or mask.shape != (self.num_envs,) or mask.dtype != np.bool_:
+            got = f"{type(mask).__name__} {getattr(mask, 'shape', '')} {getattr(mask, 'dtype', '')}"
+            raise ValueError(f'options["reset_mask"] must be a bool array of shape ({self.num_envs},), got {got}')
+        if not mask.any():
+            raise ValueError('options["reset_mask"] must hold at least one True')
+        return mask
+
+    def _seed(self, seed, mask: np.ndarray) -> None:
+        """Seeds the PCG64 state of each sub-environment in ``mask``: ``seed + i``, ``seed[i]``, or fresh entropy for
+        None (once: later resets without a seed go on with the same streams, as a single env's do)."""
+        if seed is None:
+            if self._seeded:
+                return
+            seeds = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        elif isinstance(seed, (list, tuple)) and len(seed) == self.num_envs:
+            seeds = list(seed)
+        else:
+            raise ValueError(f"seed must be None, an int or a list of {self.num_envs} ints or None, got {seed!r}")
+        for i in np.flatnonzero(mask).tolist():
+            if seeds[i] is not None or not self._seeded:
+                self._rngs[i] = pcg64.state_words(seeding.np_random(seeds[i])[0])
+        self._seeded = True
 
     def step(self, actions):
-        error = action_error(actions, self.action_space.shape)
-        if error:
-            raise ValueError(error.replace("action", "actions", 1))
-        clipped = np.clip(np.asarray(actions, dtype=np.float64), -1.0, 1.0)
-        torques = self._torque_scale @ clipped.T
-        effort = (clipped * clipped) @ self._mean_weights
-        x = self._x
-        np.copyto(self._previous, x)
-        args = (torques[0], torques[1], *self._disk_constants())
-        with np.errstate(all="ignore"):
-            for _ in range(self.config.substeps):
-                self._step(FULL_MODEL.batched, x, self._substep, args, self._work)
-            in_domain = (np.abs(x[3]) < LEAN_LIMIT) & np.isfinite(x.sum(axis=0))
-        if not in_domain.all():
-            x[:, ~in_domain] = self._previous[:, ~in_domain]
-        self._torques = torques
-
-        resetting = self._autoreset
+        if self._observations is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        if type(actions) is not np.ndarray or actions.dtype != np.float32 or not actions.flags.c_contiguous:
+            error = action_error(actions, self.action_space.shape)
+            if error:
+                raise ValueError(error.replace("action", "actions", 1))
+            actions = np.ascontiguousarray(actions, dtype=np.float32)
+        elif actions.shape != self.action_space.shape:
+            raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
+        mode = self.autoreset_mode
+        if mode == AutoresetMode.DISABLED and self._ended.any():
+            raise ValueError(
+                f"sub-environments {np.flatnonzero(self._ended).tolist()} have ended and autoreset is disabled: "
+                'reset them with reset(options={"reset_mask": mask}) first'
+            )
+        out = self._batch.outputs()
+        resetting = self._ended if mode == AutoresetMode.NEXT_STEP else self._none
+        bad = self._batch.step(actions, resetting, out)
+        if bad >= 0:
+            raise ValueError(f"actions must be finite numbers, got {actions[bad]!r} for sub-environment {bad}")
         if resetting.any():
-            self._start_episodes(np.flatnonzero(resetting))
-        self._torques[:, resetting] = 0.0
-        self._elapsed += ~resetting
-
-        terms = self.task.reward_terms(x, effort, self._goal, BATCHED_MATH)
-        rewards = np.where(resetting, 0.0, self.task.reward(terms))
-        terminated = (self.task.fallen(x, BATCHED_MATH) | ~in_domain) & ~resetting
-        limit = self.max_episode_steps
-        truncated = (self._elapsed >= limit) & ~resetting if limit is not None else np.zeros(self.num_envs, bool)
-        if self.task.success_bound is not None:
-            self._record_tracking_error(resetting)
-        infos = self._infos(terms, terminated, in_domain)
-        self._autoreset = terminated | truncated
-        return self._observations(), rewards, terminated, truncated, infos
-
-    def _disk_constants(self):
-        """``(m, g, r)``: floats shared by every disk, or rows of shape (N,) with ``params_ranges``."""
-        return self._shared_constants or tuple(self._constants)
-
-    def _record_tracking_error(self, resetting: np.ndarray) -> None:
-        if self._elapsed.max() >= self._error_sums.shape[1]:
-            self._error_sums = np.concatenate([self._error_sums, np.zeros_like(self._error_sums)], axis=1)
-        error = self.task.tracking_error(self._x, self._goal, BATCHED_MATH)
-        stepped = self._index[~resetting]
-        steps = self._elapsed[stepped]
-        self._error_sums[stepped, steps] = self._error_sums[stepped, steps - 1] + error[stepped]
-
-    def _observations(self) -> np.ndarray:
-        components = self.task.observe(self._x, self._goal, BATCHED_MATH)
-        # Component-major while clipping: numpy's clip against per-column bounds is slow on rows of 4 values.
-        observation = np.empty((len(components), self.num_envs), dtype=np.float32)
-        for row, component in enumerate(components):
-            observation[row] = component
-        np.clip(observation, self._obs_low, self._obs_high, out=observation)
-        return observation.T.copy()
-
-    def _infos(self, terms: dict, terminated: np.ndarray, in_domain: np.ndarray | None) -> dict:
-        x = self._x
-        m, g, r = self._disk_constants()
-        if self.task.success_bound is None:
-            success = ~terminated
+            self._batch.reset(resetting, out, self._rngs)
+        rewards = out.info[:, engine.REWARD].copy()
+        terminated = out.flags[:, engine.TERMINATED].copy()
+        truncated = out.flags[:, engine.TRUNCATED].copy()
+        ended = terminated | truncated
+        stepped = ~resetting
+        if mode == AutoresetMode.SAME_STEP and ended.any():
+            final = self._final(out, ended)
+            self._batch.reset(ended, out, self._rngs)
+            infos = self._infos(out, None, stepped & ~ended)
+            infos.update(final)
         else:
-            half = self._elapsed // 2
-            totals = self._error_sums[self._index, self._elapsed] - self._error_sums[self._index, half]
-            mean_error = totals / np.maximum(1, self._elapsed - half)
-            success = ~terminated & (mean_error <= self.task.success_bound)
-        diagnostics = batched.diagnostics(x, *self._torques, m, g, r, np.empty((3, self.num_envs)))
+            infos = self._infos(out, None, stepped)
+            self._ended = ended
+        self._observations = out.observations
+        return out.observations.copy(), rewards, terminated, truncated, infos
+
+    def _infos(self, out: Outputs, present: np.ndarray | None, stepped: np.ndarray) -> dict:
+        """The batched info of ``out``, each key with its mask: ``present`` reports the state and contact keys (None:
+        every sub-environment), ``stepped`` the reward terms and the termination."""
+        info = out.info
+        everyone = np.ones(self.num_envs, dtype=bool) if present is None else present
         infos = {
-            "state": x.T.copy(),
-            "energy": diagnostics[0],
-            "contact_force": diagnostics[1:].T.copy(),
-            # Terms are fresh arrays each step, or constants such as "alive".
-            "rewards": {
-                name: np.full(self.num_envs, value) if np.ndim(value) == 0 else value for name, value in terms.items()
-            },
-            "is_success": success,
+            "state": info[:, :8],
+            "energy": info[:, engine.ENERGY],
+            "contact_force": info[:, engine.LAMBDA1 : engine.LAMBDA2 + 1],
+            "normal_force": info[:, engine.NORMAL_FORCE],
+            "required_friction": info[:, engine.REQUIRED_FRICTION],
+            "is_success": out.flags[:, engine.SUCCESS],
         }
-        if in_domain is not None and terminated.any():
-            reasons = np.full(self.num_envs, None, dtype=object)
-            reasons[terminated] = "fallen"
-            reasons[terminated & ~in_domain] = "out_of_domain"
-            infos["termination"] = reasons
-            infos["_termination"] = terminated.copy()
+        infos = {key: value for name, value in infos.items() for key, value in ((name, value), (f"_{name}", everyone))}
+        if stepped.any():
+            for row, key in enumerate(self._term_keys, start=engine.TERMS):
+                infos[key], infos[f"_{key}"] = info[:, row], stepped
+        terminated = out.flags[:, engine.TERMINATED] & stepped
+        if terminated.any():
+            infos["termination"], infos["_termination"] = self._reasons(out.status, terminated), terminated
         return infos
+
+    def _reasons(self, status: np.ndarray, terminated: np.ndarray) -> np.ndarray:
+        """``info["termination"]``: the reason's name where ``terminated``, None elsewhere (an object array)."""
+        reasons = np.full(self.num_envs, None, dtype=object)
+        for i in np.flatnonzero(terminated).tolist():
+            reasons[i] = engine.TERMINATIONS[status[i]]
+        return reasons
+
+    def _final(self, out: Outputs, ended: np.ndarray) -> dict:
+        """SAME_STEP's ``final_obs`` and ``final_info`` of the sub-environments that ended, taken from ``out`` before
+        they are reset."""
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for i in np.flatnonzero(ended).tolist():
+            final_obs[i] = out.observations[i].copy()
+        kept = Outputs.empty(self.num_envs, out.observations.shape[1], len(self._term_keys))
+        kept.info[ended] = out.info[ended]
+        kept.flags[ended] = out.flags[ended]
+        kept.status[ended] = out.status[ended]
+        final_info = self._infos(kept, ended, ended)
+        return {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info, "_final_info": ended.copy()}

@@ -1,82 +1,147 @@
-"""What a task is: its initial states, observation, named reward terms, fall threshold and success rule.
+"""What a task is, and the arrays its compiled formulas read and write.
 
-A task's formulas are written once and run on one disk or on N disks: ``x`` is a sequence of the 8 state components
-(floats for one disk, rows of shape (N,) for N disks), ``goal`` a dict of per-episode targets (floats or arrays), and
-``xp`` the namespace of elementwise functions, :data:`SCALAR_MATH` or :data:`BATCHED_MATH` (numpy works too).
-Episodes are drawn the same way: the env draws each range's value uniformly
-(:meth:`rolling_disk_env.envs.config.EnvConfig.episode`) and the task turns the values into a goal and a state.
+A task is one module (see the recipe in :mod:`rolling_disk_env.tasks`): a :class:`Task` subclass, which checks the
+task's options and describes its spaces, reward terms and ranges, and module-level kernels, pure functions of floats
+and tuples of floats that numba compiles into the engine's fused step (``x`` is the state, 8 floats; ``goal`` the
+episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :attr:`Task.setting_names`):
+
+* ``start(drawn, disk, settings) -> (goal, x)``: the episode's goal and initial state from the values ``drawn``
+  uniformly in the task's goal ranges, then its initial-state ranges (an array, in their keys' order), for the disk
+  ``(m, g, r)``;
+* ``observe(x, goal, settings)``: the observation (unclipped: the engine clips it to the bounds);
+* ``reward_terms(x, effort, goal, settings)``: each named term, in [-1, 1], in the order of
+  :attr:`Task.default_reward_weights`; ``effort`` is the mean squared normalized action, in [0, 1]; the engine
+  weights and sums them;
+* ``termination(x, goal, settings)``: :data:`RUNNING`, :data:`FALLEN` or :data:`REACHED`;
+* ``tracking_error(x, goal, settings)``: the error whose mean decides success (only for the success rule
+  :data:`TRACK`).
+
+Each module names the positions it reads in these tuples with constants (numba folds them), as :data:`THETA` and the
+others do for the state.
 """
 
 from __future__ import annotations
 
 import math
-from abc import ABC, abstractmethod
-from types import SimpleNamespace
+from abc import ABC
 from typing import ClassVar
 
 import numpy as np
 
-from rolling_disk_env import trig
-from rolling_disk_env.dynamics import LEAN_LIMIT
+from rolling_disk_env.dynamics import LEAN_LIMIT, is_number, number_pair
+from rolling_disk_env.jit import kernel
 
-SCALAR_MATH = SimpleNamespace(sin=math.sin, cos=math.cos, sqrt=math.sqrt, minimum=min, abs=abs)
-"""numpy's names for the functions the tasks use, on floats."""
-BATCHED_MATH = SimpleNamespace(sin=trig.sin, cos=trig.cos, sqrt=np.sqrt, minimum=np.minimum, abs=np.abs)
-"""The same on arrays: numpy's, with the batched path's sine and cosine (:mod:`rolling_disk_env.trig`)."""
+C1, C2, PHI, THETA, PSI, DPHI, DTHETA, DPSI = range(8)
+"""Positions in a state ``x`` (the paper's order)."""
+MASS, GRAVITY, RADIUS = range(3)
+"""Positions in a disk ``(m, g, r)``."""
+
+RUNNING, FALLEN, REACHED = 0, 1, 6
+"""What ``termination`` returns: the episode goes on, the disk has fallen, the goal is reached (the engine's codes,
+:data:`rolling_disk_env.engine.TERMINATIONS`)."""
+SURVIVE, TRACK, REACH = range(3)
+"""Success rules: not falling; not falling with a mean tracking error over the last half of the episode within
+``success_bound``; reaching the goal."""
 
 RATE_BOUND = 100.0
 """rad/s. Observed rates are clipped to +-RATE_BOUND so that the observation space is bounded."""
 
 
-class Task(ABC):
-    """One task of RollingDisk-v0.
+@kernel
+def penalty(error):
+    """The bounded penalty ``-min(error^2, 1)`` of a normalized error (compiled into the tasks' kernels)."""
+    return -min(error * error, 1.0)
 
-    Subclasses set the class attributes and implement the abstract methods; register them in
-    :data:`rolling_disk_env.tasks.TASKS`.
+
+class Task(ABC):
+    """One task of RollingDisk-v0: options, spaces, names and ranges (the formulas are the module's kernels).
+
+    Subclasses set the class attributes and register in :data:`rolling_disk_env.tasks.TASKS`.
 
     Attributes:
         name: the ``task=`` string.
-        needs_position: whether the observation or reward reads c1, c2 (else the lean model would suffice).
         observation_names: one per observation component.
-        reward_weights: weight of each named reward term; every term lies in [-1, 1] per step.
-        fall_lean: rad. The episode terminates when |theta| exceeds it.
-        success_bound: if set, success also needs the mean of :meth:`tracking_error` over the last half of the
-            episode to stay at or below it; otherwise success is reaching truncation without falling.
+        default_reward_weights: the named reward terms, in the order ``reward_terms`` writes them, with their
+            default weights (option ``reward_weights``).
+        goal_names: the per-episode targets ``start`` writes, in order.
+        setting_names: the instance attributes the kernels read from ``settings``, in order.
+        default_initial_ranges: initial-state ranges (option ``initial_ranges``), in the order ``start`` reads them.
+        fall_lean: rad. The disk has fallen when |theta| exceeds it.
+        success: the success rule, :data:`SURVIVE`, :data:`TRACK` or :data:`REACH`.
+        success_bound: the bound of the success rule :data:`TRACK` (or of :data:`REACH`'s distance).
     """
 
     name: ClassVar[str]
-    needs_position: ClassVar[bool]
     observation_names: ClassVar[tuple[str, ...]]
     default_reward_weights: ClassVar[dict[str, float]]
+    goal_names: ClassVar[tuple[str, ...]]
+    setting_names: ClassVar[tuple[str, ...]]
     default_initial_ranges: ClassVar[dict[str, tuple[float, float]]]
     fall_lean: float
-    success_bound: float | None = None
+    success: ClassVar[int] = SURVIVE
+    success_bound: float = math.inf
 
     def __init__(self, reward_weights: dict[str, float] | None = None, fall_lean: float | None = None):
         weights = dict(self.default_reward_weights)
+        if not isinstance(reward_weights, (dict, type(None))):
+            raise ValueError(f"reward_weights must be a dict of term names to numbers, got {reward_weights!r}")
         for key, value in (reward_weights or {}).items():
             if key not in weights:
                 raise ValueError(f"unknown reward term {key!r} for task {self.name!r}; terms: {sorted(weights)}")
-            if not math.isfinite(value):
-                raise ValueError(f"reward weight {key!r} must be finite, got {value!r}")
+            if not (is_number(value) and math.isfinite(value)):
+                raise ValueError(f"reward weight {key!r} must be a finite number, got {value!r}")
             weights[key] = float(value)
         self.reward_weights = weights
         if fall_lean is not None:
-            if not 0 < fall_lean < LEAN_LIMIT:
-                raise ValueError(f"fall_lean must lie in (0, {LEAN_LIMIT:.4f}) rad, got {fall_lean!r}")
+            if not (is_number(fall_lean) and 0 < fall_lean < LEAN_LIMIT):
+                raise ValueError(f"fall_lean must be a number in (0, {LEAN_LIMIT:.4f}) rad, got {fall_lean!r}")
             self.fall_lean = float(fall_lean)
 
     def initial_ranges(self, overrides: dict[str, tuple[float, float]] | None) -> dict[str, tuple[float, float]]:
-        """The task's initial-state ranges, updated by ``overrides`` (checked: known keys, low <= high)."""
+        """The task's initial-state ranges, updated by ``overrides``, checked: known keys, (low, high) pairs with
+        low <= high, and leans ``theta`` within the fall threshold (so that no episode starts fallen, as a state
+        given to ``reset`` may not either) and the model's domain."""
+        if not isinstance(overrides, (dict, type(None))):
+            raise ValueError(f"initial_ranges must be a dict of (low, high) pairs, got {overrides!r}")
         ranges = dict(self.default_initial_ranges)
         for key, bounds in (overrides or {}).items():
             if key not in ranges:
                 raise ValueError(f"unknown initial-state range {key!r} for task {self.name!r}; keys: {sorted(ranges)}")
-            low, high = (float(b) for b in bounds)
+            low, high = number_pair(bounds, f"initial-state range {key!r}")
             if not (math.isfinite(low) and math.isfinite(high) and low <= high):
                 raise ValueError(f"initial-state range {key!r} must be finite with low <= high, got {bounds!r}")
             ranges[key] = (low, high)
+        if "theta" in ranges:
+            lean = max(abs(bound) for bound in ranges["theta"])
+            if lean >= LEAN_LIMIT:
+                raise ValueError(
+                    f"initial-state range 'theta' {ranges['theta']} leaves the model's domain "
+                    f"|theta| < LEAN_LIMIT = {LEAN_LIMIT:.4f} rad"
+                )
+            if lean > self.fall_lean:
+                raise ValueError(
+                    f"initial-state range 'theta' {ranges['theta']} reaches past the fall threshold: keep |theta| <= "
+                    f"fall_lean = {self.fall_lean} rad (task {self.name!r}; the task option fall_lean sets it)"
+                )
         return ranges
+
+    def check_disk(self, params) -> None:
+        """Raises ``ValueError`` if the task has no goal for a disk of these ``DiskParams`` (nothing to check here)."""
+
+    @property
+    def goal_ranges(self) -> dict[str, tuple[float, float]]:
+        """Per-episode values drawn uniformly from their ranges before the initial state's (none by default)."""
+        return {}
+
+    @property
+    def settings(self) -> np.ndarray:
+        """The options the kernels read: :attr:`setting_names` in order, float64."""
+        return np.array([getattr(self, name) for name in self.setting_names], dtype=np.float64)
+
+    @property
+    def weights(self) -> np.ndarray:
+        """The reward weights in the order of the terms, float64."""
+        return np.array(list(self.reward_weights.values()), dtype=np.float64)
 
     @property
     def observation_high(self) -> np.ndarray:
@@ -86,44 +151,3 @@ class Task(ABC):
     def observation_bound(self, name: str) -> float:
         """Bound of one observation component; rates default to :data:`RATE_BOUND`."""
         return RATE_BOUND
-
-    @property
-    def goal_ranges(self) -> dict[str, tuple[float, float]]:
-        """Per-episode goal values drawn uniformly from their ranges (none by default)."""
-        return {}
-
-    @abstractmethod
-    def goal(self, drawn: dict, constants: tuple, xp) -> dict:
-        """The episode's targets, from the values ``drawn`` in :attr:`goal_ranges` and the disk's ``(m, g, r)``."""
-
-    @abstractmethod
-    def initial_state(self, drawn: dict, constants: tuple, goal: dict, xp) -> list:
-        """The initial state's 8 components, from the values ``drawn`` in the initial-state ranges."""
-
-    @abstractmethod
-    def observe(self, x, goal: dict, xp) -> list:
-        """The observation's components, unclipped."""
-
-    @abstractmethod
-    def reward_terms(self, x, effort, goal: dict, xp) -> dict:
-        """Each named term, in [-1, 1]; ``effort`` is the mean squared normalized action, in [0, 1]."""
-
-    def tracking_error(self, x, goal: dict, xp):
-        """The error whose mean over the last half of an episode decides success (with ``success_bound``)."""
-        raise NotImplementedError(f"task {self.name!r} has no tracking error")
-
-    @staticmethod
-    def penalty(error, xp):
-        """The bounded penalty ``-min(error^2, 1)`` of a normalized error (float or array)."""
-        return -xp.minimum(error * error, 1.0)
-
-    def reward(self, terms: dict):
-        """The weighted sum of the terms."""
-        total = 0.0
-        for name, value in terms.items():
-            total = total + self.reward_weights[name] * value
-        return total
-
-    def fallen(self, x, xp):
-        """Whether the disk has fallen: |theta| > fall_lean."""
-        return xp.abs(x[3]) > self.fall_lean

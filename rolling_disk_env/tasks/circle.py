@@ -12,8 +12,40 @@ from __future__ import annotations
 import math
 from typing import ClassVar
 
-from rolling_disk_env.dynamics import steady_circles
-from rolling_disk_env.tasks.base import Task
+from rolling_disk_env import engine
+from rolling_disk_env.dynamics import DiskParams, is_number, number_pair, steady_circle
+from rolling_disk_env.jit import kernel
+from rolling_disk_env.tasks.base import (
+    C1,
+    C2,
+    DPHI,
+    DPSI,
+    DTHETA,
+    FALLEN,
+    GRAVITY,
+    PSI,
+    RADIUS,
+    RUNNING,
+    THETA,
+    TRACK,
+    Task,
+    penalty,
+)
+
+# Positions in this task's arrays.
+TARGET_SPEED, FALL_LEAN, CENTRE_X, CENTRE_Y = range(4)  # settings
+CIRCLE_RADIUS, CIRCLE_X, CIRCLE_Y, TARGET_THETA, TARGET_DPHI, TARGET_DPSI = range(6)  # goal
+(
+    DRAWN_RADIUS,  # goal range
+    DRAWN_ANGLE,
+    DRAWN_RADIAL_OFFSET,
+    DRAWN_HEADING_ERROR,
+    DRAWN_THETA,
+    DRAWN_DTHETA,
+    DRAWN_DPHI_ERROR,
+    DRAWN_DPSI,
+    DRAWN_PHI,
+) = range(9)
 
 
 class CircleTask(Task):
@@ -37,7 +69,6 @@ class CircleTask(Task):
     """
 
     name = "circle"
-    needs_position = True
     observation_names = (
         "radial_error",
         "sin_heading_error",
@@ -49,6 +80,8 @@ class CircleTask(Task):
         "target_lean",
     )
     default_reward_weights: ClassVar[dict[str, float]] = {"alive": 1.0, "radial": 1.0, "speed": 0.3, "effort": 0.1}
+    goal_names = ("radius", "cx", "cy", "theta", "dphi", "dpsi")
+    setting_names = ("target_speed", "fall_lean", "centre_x", "centre_y")
     default_initial_ranges: ClassVar[dict[str, tuple[float, float]]] = {
         "angle": (-math.pi, math.pi),
         "radial_offset": (-0.5, 0.5),
@@ -60,6 +93,7 @@ class CircleTask(Task):
         "phi": (-math.pi, math.pi),
     }
     fall_lean = 0.8
+    success = TRACK
     success_bound = 0.25
     radial_error_bound = 10.0
 
@@ -79,14 +113,20 @@ class CircleTask(Task):
             **kwargs: ``reward_weights``, ``fall_lean`` (see :class:`Task`).
         """
         super().__init__(**kwargs)
-        low, high = (float(v) for v in radius_range)
-        if not (math.isfinite(target_speed) and target_speed > 0):
+        low, high = number_pair(radius_range, "radius_range")
+        if not (is_number(target_speed) and math.isfinite(target_speed) and target_speed > 0):
             raise ValueError(f"target_speed must be a finite number > 0 (m/s), got {target_speed!r}")
         if not (math.isfinite(high) and 0 < low <= high):
             raise ValueError(f"radius_range must satisfy 0 < low <= high (m), got {radius_range!r}")
         self.target_speed = float(target_speed)
         self.radius_range = (low, high)
-        self.centre = tuple(float(v) for v in centre)
+        self.centre_x, self.centre_y = number_pair(centre, "centre", "(x, y)")
+        if not (math.isfinite(self.centre_x) and math.isfinite(self.centre_y)):
+            raise ValueError(f"centre must be finite (m), got {centre!r}")
+
+    def check_disk(self, params: DiskParams) -> None:
+        """Raises ``ValueError`` if the range's tightest circle has no steady motion for the disk ``params``."""
+        steady_circle(self.radius_range[0], self.target_speed, params)
 
     def observation_bound(self, name: str) -> float:
         bounds = {
@@ -102,55 +142,67 @@ class CircleTask(Task):
     def goal_ranges(self) -> dict[str, tuple[float, float]]:
         return {"radius": self.radius_range}
 
-    def goal(self, drawn, constants, xp) -> dict:
-        _, gravity, disk_radius = constants
-        theta, dphi, dpsi = steady_circles(drawn["radius"], self.target_speed, gravity, disk_radius)
-        return {
-            "radius": drawn["radius"],
-            "cx": self.centre[0],
-            "cy": self.centre[1],
-            "theta": theta,
-            "dphi": dphi,
-            "dpsi": dpsi,
-        }
 
-    def initial_state(self, drawn, constants, goal, xp) -> list:
-        v = drawn
-        distance = goal["radius"] + v["radial_offset"]
-        c1 = goal["cx"] + distance * xp.cos(v["angle"])
-        c2 = goal["cy"] + distance * xp.sin(v["angle"])
-        # Rolling direction (sin psi, -cos psi) along the counter-clockwise tangent (-sin a, cos a): psi = a + pi.
-        psi = v["angle"] + math.pi + v["heading_error"]
-        return [c1, c2, v["phi"], v["theta"], psi, goal["dphi"] * (1 + v["dphi_error"]), v["dtheta"], v["dpsi"]]
+@kernel
+def start(drawn, disk, settings):
+    """The episode's steady circle, and a vertical disk rolling straight near it, tangent to it."""
+    radius = drawn[DRAWN_RADIUS]
+    theta, dphi, dpsi = engine.steady_circle(radius, settings[TARGET_SPEED], disk[GRAVITY], disk[RADIUS])
+    goal = (radius, settings[CENTRE_X], settings[CENTRE_Y], theta, dphi, dpsi)
+    angle = drawn[DRAWN_ANGLE]
+    distance = radius + drawn[DRAWN_RADIAL_OFFSET]
+    # Rolling direction (sin psi, -cos psi) along the counter-clockwise tangent (-sin a, cos a): psi = a + pi.
+    x = (
+        goal[CIRCLE_X] + distance * math.cos(angle),
+        goal[CIRCLE_Y] + distance * math.sin(angle),
+        drawn[DRAWN_PHI],
+        drawn[DRAWN_THETA],
+        angle + math.pi + drawn[DRAWN_HEADING_ERROR],
+        dphi * (1.0 + drawn[DRAWN_DPHI_ERROR]),
+        drawn[DRAWN_DTHETA],
+        drawn[DRAWN_DPSI],
+    )
+    return goal, x
 
-    def _polar(self, x, goal, xp):
-        dx, dy = x[0] - goal["cx"], x[1] - goal["cy"]
-        distance = xp.sqrt(dx * dx + dy * dy)
-        return dx, dy, distance
 
-    def observe(self, x, goal, xp) -> list:
-        dx, dy, distance = self._polar(x, goal, xp)
-        sin_psi, cos_psi = xp.sin(x[4]), xp.cos(x[4])
-        # delta = psi - angle - pi, with (cos angle, sin angle) = (dx, dy) / distance.
-        scale = 1.0 / (distance + 1e-9)
-        return [
-            distance - goal["radius"],
-            (cos_psi * dy - sin_psi * dx) * scale,
-            -(cos_psi * dx + sin_psi * dy) * scale,
-            x[3] - goal["theta"],
-            x[6],
-            x[5] - goal["dphi"],
-            x[7] - goal["dpsi"],
-            goal["theta"],
-        ]
+@kernel
+def radial_error(x, goal):
+    """|c - centre| - R (m)."""
+    return math.hypot(x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]) - goal[CIRCLE_RADIUS]
 
-    def reward_terms(self, x, effort, goal, xp) -> dict:
-        return {
-            "alive": 1.0,
-            "radial": self.penalty(self._polar(x, goal, xp)[2] - goal["radius"], xp),
-            "speed": self.penalty((x[5] - goal["dphi"]) / goal["dphi"], xp),
-            "effort": -effort,
-        }
 
-    def tracking_error(self, x, goal, xp):
-        return xp.abs(self._polar(x, goal, xp)[2] - goal["radius"])
+@kernel
+def observe(x, goal, settings):
+    dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
+    distance = math.hypot(dx, dy)
+    sin_psi, cos_psi = math.sin(x[PSI]), math.cos(x[PSI])
+    # delta = psi - angle - pi, with (cos angle, sin angle) = (dx, dy) / distance.
+    scale = 1.0 / (distance + 1e-9)
+    return (
+        distance - goal[CIRCLE_RADIUS],
+        (cos_psi * dy - sin_psi * dx) * scale,
+        -(cos_psi * dx + sin_psi * dy) * scale,
+        x[THETA] - goal[TARGET_THETA],
+        x[DTHETA],
+        x[DPHI] - goal[TARGET_DPHI],
+        x[DPSI] - goal[TARGET_DPSI],
+        goal[TARGET_THETA],
+    )
+
+
+@kernel
+def reward_terms(x, effort, goal, settings):
+    alive = 1.0
+    radial = penalty(radial_error(x, goal))
+    speed = penalty((x[DPHI] - goal[TARGET_DPHI]) / goal[TARGET_DPHI])
+    return (alive, radial, speed, -effort)
+
+
+@kernel
+def termination(x, goal, settings):
+    return FALLEN if abs(x[THETA]) > settings[FALL_LEAN] else RUNNING
+
+
+@kernel
+def tracking_error(x, goal, settings):
+    return abs(radial_error(x, goal))

@@ -12,7 +12,14 @@ from __future__ import annotations
 import math
 from typing import ClassVar
 
-from rolling_disk_env.tasks.base import Task
+from rolling_disk_env.dynamics import is_number
+from rolling_disk_env.jit import kernel
+from rolling_disk_env.tasks.base import DPHI, DPSI, DTHETA, FALLEN, RADIUS, RUNNING, THETA, Task, penalty
+
+# Positions in this task's arrays.
+TARGET_SPEED, FALL_LEAN = range(2)  # settings
+TARGET_DPHI = 0  # goal
+DRAWN_PHI, DRAWN_PSI, DRAWN_THETA, DRAWN_DTHETA, DRAWN_DPHI, DRAWN_DPSI = range(6)  # initial ranges
 
 
 class UprightTask(Task):
@@ -22,7 +29,7 @@ class UprightTask(Task):
     ``dphi* = target_speed / r``.
 
     Reward terms (weights: ``reward_weights``):
-        ``alive`` 1 every step; ``lean`` -(theta / fall_lean)^2; ``speed`` -min(((dphi - dphi*) / dphi*)^2, 1);
+        ``alive`` 1 every step; ``lean`` -min((theta / fall_lean)^2, 1); ``speed`` -min(((dphi - dphi*) / dphi*)^2, 1);
         ``effort`` minus the mean squared normalized action.
 
     Initial state: ``c1 = c2 = 0``; ``phi``, ``psi``, ``theta``, ``dtheta``, ``dphi``, ``dpsi`` uniform in
@@ -32,9 +39,10 @@ class UprightTask(Task):
     """
 
     name = "upright"
-    needs_position = False
     observation_names = ("theta", "dtheta", "dphi_error", "dpsi")
     default_reward_weights: ClassVar[dict[str, float]] = {"alive": 1.0, "lean": 1.0, "speed": 0.5, "effort": 0.1}
+    goal_names = ("dphi",)
+    setting_names = ("target_speed", "fall_lean")
     default_initial_ranges: ClassVar[dict[str, tuple[float, float]]] = {
         "phi": (-math.pi, math.pi),
         "psi": (-math.pi, math.pi),
@@ -53,31 +61,36 @@ class UprightTask(Task):
             **kwargs: ``reward_weights``, ``fall_lean`` (see :class:`Task`).
         """
         super().__init__(**kwargs)
-        if not (math.isfinite(target_speed) and target_speed > 0):
+        if not (is_number(target_speed) and math.isfinite(target_speed) and target_speed > 0):
             raise ValueError(f"target_speed must be a finite number > 0 (m/s), got {target_speed!r}")
         self.target_speed = float(target_speed)
 
     def observation_bound(self, name: str) -> float:
         return math.pi / 2 if name == "theta" else super().observation_bound(name)
 
-    def target_spin_rate(self, disk_radius):
-        """dphi* = target_speed / r (rad/s), for a disk of radius ``disk_radius`` (m; a float or an array)."""
-        return self.target_speed / disk_radius
 
-    def goal(self, drawn, constants, xp) -> dict:
-        return {"dphi": self.target_spin_rate(constants[2])}
+@kernel
+def start(drawn, disk, settings):
+    """At the origin, the angles and rates drawn; the goal is the spin rate of the target speed."""
+    goal = (settings[TARGET_SPEED] / disk[RADIUS],)
+    phi, psi, theta = drawn[DRAWN_PHI], drawn[DRAWN_PSI], drawn[DRAWN_THETA]
+    x = (0.0, 0.0, phi, theta, psi, drawn[DRAWN_DPHI], drawn[DRAWN_DTHETA], drawn[DRAWN_DPSI])
+    return goal, x
 
-    def initial_state(self, drawn, constants, goal, xp) -> list:
-        v = drawn
-        return [0.0, 0.0, v["phi"], v["theta"], v["psi"], v["dphi"], v["dtheta"], v["dpsi"]]
 
-    def observe(self, x, goal, xp) -> list:
-        return [x[3], x[6], x[5] - goal["dphi"], x[7]]
+@kernel
+def observe(x, goal, settings):
+    return (x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])
 
-    def reward_terms(self, x, effort, goal, xp) -> dict:
-        return {
-            "alive": 1.0,
-            "lean": self.penalty(x[3] / self.fall_lean, xp),
-            "speed": self.penalty((x[5] - goal["dphi"]) / goal["dphi"], xp),
-            "effort": -effort,
-        }
+
+@kernel
+def reward_terms(x, effort, goal, settings):
+    alive = 1.0
+    lean = penalty(x[THETA] / settings[FALL_LEAN])
+    speed = penalty((x[DPHI] - goal[TARGET_DPHI]) / goal[TARGET_DPHI])
+    return (alive, lean, speed, -effort)
+
+
+@kernel
+def termination(x, goal, settings):
+    return FALLEN if abs(x[THETA]) > settings[FALL_LEAN] else RUNNING

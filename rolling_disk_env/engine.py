@@ -1,0 +1,334 @@
+"""The compiled engine: what one disk runs in a control period, and the loops that run it for N disks.
+
+Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Python on floats and arrays:
+
+* the model's kernels, generated from the SymPy derivation (``_generated/kernels.py``): derivatives, one step of each
+  integrator with its stages written out, energy and contact forces;
+* the pieces every task's step shares, below: the action's torques, the error-controlled integration of a control
+  period (``"dopri5"``), the contact checks, the domain check, the success rule;
+* the fused step of each task (``_generated/<task>.py``, written by :mod:`rolling_disk_env.codegen` from a template):
+  one disk through a control period, then its observation, reward terms, termination and info, and the loops that
+  map it over a batch, serially or on numba's threads;
+* the batch loops of the model API (:mod:`rolling_disk_env.dynamics`, :func:`rolling_disk_env.simulate`).
+
+The single env and the vector env call the same per-disk function, so they give the same transitions to the last
+bit. Batches use rows: a state batch is (N, 8), float64.
+
+Threads: a batch of at least :data:`PARALLEL_FROM` disks runs on numba's threads (``NUMBA_NUM_THREADS``, by default
+one per core); smaller batches, and every batch in a process where ``NUMBA_NUM_THREADS=1``, run serially. The loops
+never run at the same time as SB3's torch computations, so the two do not compete for the cores; in
+``SubprocVecEnv`` children each env steps one disk, serially.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import inspect
+import math
+from types import ModuleType
+
+import numpy as np
+
+from rolling_disk_env._generated import kernels
+from rolling_disk_env.dynamics import LEAN_LIMIT
+from rolling_disk_env.integrators import ENGINE_METHODS
+from rolling_disk_env.jit import kernel
+from rolling_disk_env.tasks.base import FALLEN, REACH, REACHED, RUNNING, SURVIVE, TRACK
+
+METHODS = ENGINE_METHODS
+"""The engine's integrators, by code (their index): fixed steps, then the error-controlled Dormand-Prince 5(4)."""
+ADAPTIVE = METHODS.index("dopri5")
+MAX_ADAPTIVE_SUBSTEPS = 10_000
+"""Steps (accepted or rejected) that ``"dopri5"`` may take in one control period or output interval; past it the
+episode ends with ``"substep_limit"`` (``simulate`` raises) instead of looping on."""
+PARALLEL_FROM = 1024
+"""Batches of this many disks or more run on numba's threads (measured: ``benchmarks/bench_env.py``)."""
+
+OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT = range(2, 6)
+"""Termination codes of a disk after a step, beside the tasks' RUNNING (0), FALLEN (1) and REACHED (6)."""
+TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "substep_limit", "reached")
+"""``info["termination"]`` of each code: the task's fall (or goal), the integrator leaving the model's domain, the
+contact needing more friction than ``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""
+
+ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD = range(8, 14)
+"""Columns of an info block (floats, one row per disk) after the 8 state columns: energy (J), contact force (N),
+normal force (N), the friction coefficient the contact needs, the reward; then the reward terms from column TERMS."""
+TERMS = 14
+TERMINATED, TRUNCATED, SUCCESS = range(3)
+"""Columns of a flags block (booleans, one row per disk)."""
+
+PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_RULE, SUCCESS_BOUND = range(8)
+"""Entries of an env's ``config`` array: control period (s), fixed substeps, dopri5's tolerances, the friction
+coefficient (inf: ideal rolling), episode steps before truncation (0: none, as in the single env, whose TimeLimit
+wrapper truncates), the task's success rule and bound."""
+NEXT_STEP, SAME_STEP, DISABLED = range(3)
+"""Autoreset modes, as Gymnasium's ``AutoresetMode``."""
+
+
+@kernel
+def torques(actions, i, actuators):
+    """``(tau_spin, tau_steer, effort)`` of disk i: the torques (N m) of its normalized action, ``actions[i]``,
+    clipped to [-1, 1], and its effort, the mean squared clipped action. ``actuators`` has a row per action
+    component: (torque 0 (spin) or 1 (steer), the torque of action +1 in N m)."""
+    spin = steer = effort = 0.0
+    count = actions.shape[1]
+    for j in range(count):
+        value = min(max(float(actions[i, j]), -1.0), 1.0)
+        effort += value * value
+        if actuators[j, 0] == 0.0:
+            spin = actuators[j, 1] * value
+        else:
+            steer = actuators[j, 1] * value
+    return spin, steer, effort / count if count else 0.0
+
+
+@kernel
+def in_domain(x) -> bool:
+    """Whether a state is finite and inside the model's domain ``|theta| < LEAN_LIMIT``."""
+    total = 0.0
+    for value in x:
+        total += value
+    return math.isfinite(total) and abs(x[3]) < LEAN_LIMIT
+
+
+@kernel
+def contact(x, tau_spin, tau_steer, m, g, r):
+    """``(energy, lambda1, lambda2, normal_force, required_friction)``: J, the horizontal and vertical ground
+    reactions (N), and the friction coefficient the contact needs, ``|lambda| / N`` (inf when N <= 0)."""
+    energy, lambda1, lambda2, normal = kernels.diagnostics(x, tau_spin, tau_steer, m, g, r)
+    required = math.sqrt(lambda1 * lambda1 + lambda2 * lambda2) / normal if normal > 0.0 else math.inf
+    return energy, lambda1, lambda2, normal, required
+
+
+@kernel
+def report(info, i, x, tau_spin, tau_steer, disk):
+    """Writes disk i's state ``x`` and its :func:`contact` values into its row of ``info``; returns the normal force
+    and the required friction."""
+    for j in range(8):
+        info[i, j] = x[j]
+    values = contact(x, tau_spin, tau_steer, disk[0], disk[1], disk[2])
+    for j in range(5):
+        info[i, ENERGY + j] = values[j]
+    return values[3], values[4]
+
+
+@kernel
+def observe(observations, i, values, high):
+    """Writes disk i's observation ``values`` into ``observations``, clipped to [-high, high]."""
+    for j in range(len(values)):
+        observations[i, j] = min(max(values[j], -high[j]), high[j])
+
+
+@kernel
+def reward(info, i, terms, weights):
+    """Writes disk i's reward ``terms`` and their sum weighted by ``weights`` into its row of ``info``."""
+    total = 0.0
+    for j in range(len(terms)):
+        info[i, TERMS + j] = terms[j]
+        total += weights[j] * terms[j]
+    info[i, REWARD] = total
+
+
+@kernel
+def checked(state, ok) -> int:
+    """SUBSTEP_LIMIT if the integrator gave up, OUT_OF_DOMAIN if the state is not finite or has left the model's
+    domain, else RUNNING."""
+    if not ok:
+        return SUBSTEP_LIMIT
+    return RUNNING if in_domain(state) else OUT_OF_DOMAIN
+
+
+@kernel
+def first_nonfinite(actions) -> int:
+    """The first row of ``actions`` holding NaN or inf, or -1."""
+    for i in range(actions.shape[0]):
+        for j in range(actions.shape[1]):
+            if not math.isfinite(actions[i, j]):
+                return i
+    return -1
+
+
+@kernel
+def contact_status(normal, required, friction) -> int:
+    """LIFTED_OFF when the normal force vanishes, SLIPPED when the contact needs more than ``friction``, else 0."""
+    if not normal > 0.0:
+        return LIFTED_OFF
+    if required > friction:
+        return SLIPPED
+    return RUNNING
+
+
+@kernel
+def next_step_size(h, step, error):
+    """The step size to try after a dopri5 step of ``step`` seconds (``h`` was proposed; ``step`` may have been cut
+    short by the end of the interval) with error norm ``error`` (accepted when <= 1): ``step * 0.9 error^(-1/5)``,
+    the factor within [0.2, 5]; a step cut short does not shrink the next one."""
+    if error <= 1.0:
+        factor = 5.0 if error == 0.0 else min(5.0, max(0.2, 0.9 * error**-0.2))
+        return max(h, step * factor) if step < h else step * factor
+    return step * 0.2 if not error < 1e30 else step * max(0.2, 0.9 * error**-0.2)
+
+
+@kernel
+def advance_adaptive(x, period, h, tau_spin, tau_steer, m, g, r, rtol, atol):
+    """Integrates the full model over ``period`` seconds with dopri5 steps under the tolerances, starting from the
+    step size ``h``. Returns ``(x, h, ok)``: the state, the step size to start the next period with, and False
+    when :data:`MAX_ADAPTIVE_SUBSTEPS` steps did not reach the end."""
+    t = 0.0
+    for _ in range(MAX_ADAPTIVE_SUBSTEPS):
+        if t >= period:
+            break
+        step = min(h, period - t)
+        new, error = kernels.state_dopri5_step(x, step, tau_spin, tau_steer, m, g, r, rtol, atol)
+        h = next_step_size(h, step, error)
+        if error <= 1.0:
+            t, x = (period if step == period - t else t + step), new
+    return x, h, t >= period
+
+
+@kernel
+def lean_advance_adaptive(y, period, h, tau_spin, tau_steer, m, g, r, rtol, atol):
+    """:func:`advance_adaptive` for the lean model."""
+    t = 0.0
+    for _ in range(MAX_ADAPTIVE_SUBSTEPS):
+        if t >= period:
+            break
+        step = min(h, period - t)
+        new, error = kernels.lean_dopri5_step(y, step, tau_spin, tau_steer, m, g, r, rtol, atol)
+        h = next_step_size(h, step, error)
+        if error <= 1.0:
+            t, y = (period if step == period - t else t + step), new
+    return y, h, t >= period
+
+
+@kernel
+def steady_circle(radius, speed, g, r):
+    """The steady circle of the centre path of ``radius`` (m) at ``speed`` (m/s), counter-clockwise:
+    ``(theta, dphi, dpsi)`` (rad, rad/s), or NaNs where there is none (:func:`rolling_disk_env.dynamics.steady_circle`
+    says why)."""
+    dpsi = speed / radius
+    if not dpsi * dpsi < 4.0 * g / r:
+        return math.nan, math.nan, math.nan
+    a, b, c = 2.0 * g / (3.0 * r * dpsi), dpsi / 6.0, speed / r
+    # excess(theta) = a tan(theta) - b sin(theta) - c is increasing and convex on [0, pi/2), so Newton's method
+    # converges monotonically from any point right of the root, such as atan((b + c) / a), where excess >= 0.
+    theta = math.atan((b + c) / a)
+    for _ in range(50):
+        cos_theta = math.cos(theta)
+        step = (a * math.tan(theta) - b * math.sin(theta) - c) / (a / (cos_theta * cos_theta) - b * cos_theta)
+        theta -= step
+        if abs(step) < 1e-15:
+            break
+    if not theta < LEAN_LIMIT:
+        return math.nan, math.nan, math.nan
+    return theta, speed / r + dpsi * math.sin(theta), dpsi
+
+
+@kernel
+def tracking_success(error_sums, i, steps, error, bound) -> bool:
+    """Records disk i's tracking ``error`` at step ``steps`` in its running sums ``error_sums[i]`` and says whether
+    its mean over the last half of the episode is within ``bound``."""
+    error_sums[i, steps] = error_sums[i, steps - 1] + error
+    half = steps // 2
+    return (error_sums[i, steps] - error_sums[i, half]) / max(1, steps - half) <= bound
+
+
+# The model API's loops (rolling_disk_env.dynamics and rolling_disk_env.integrators): rows of states, torques (N, 2)
+# and disks (N, 3) = (m, g, r).
+
+
+@kernel
+def store(row, values):
+    """Writes a tuple of floats into an array row."""
+    for j in range(len(values)):
+        row[j] = values[j]
+
+
+@kernel
+def derivatives(states, torques, disks, out):
+    """dx/dt of the full model (rows of 8) or dy/dt of the lean model (rows of 4) for each row."""
+    lean = states.shape[1] == 4
+    for i in range(states.shape[0]):
+        u, disk = torques[i], disks[i]
+        if lean:
+            store(out[i], kernels.lean_derivative(states[i], u[0], u[1], disk[0], disk[1], disk[2]))
+        else:
+            store(out[i], kernels.state_derivative(states[i], u[0], u[1], disk[0], disk[1], disk[2]))
+
+
+@kernel
+def diagnostics(states, torques, disks, out):
+    """:func:`contact` for each row of full states: ``out`` (N, 5)."""
+    for i in range(states.shape[0]):
+        u, disk = torques[i], disks[i]
+        values = contact(states[i], u[0], u[1], disk[0], disk[1], disk[2])
+        for j in range(5):
+            out[i, j] = values[j]
+
+
+@kernel
+def _full_step(method, x, dt, u0, u1, m, g, r):
+    if method == 0:
+        return kernels.state_euler_step(x, dt, u0, u1, m, g, r)
+    if method == 1:
+        return kernels.state_symplectic_euler_step(x, dt, u0, u1, m, g, r)
+    return kernels.state_rk4_step(x, dt, u0, u1, m, g, r)
+
+
+@kernel
+def _lean_step(method, y, dt, u0, u1, m, g, r):
+    if method == 0:
+        return kernels.lean_euler_step(y, dt, u0, u1, m, g, r)
+    if method == 1:
+        return kernels.lean_symplectic_euler_step(y, dt, u0, u1, m, g, r)
+    return kernels.lean_rk4_step(y, dt, u0, u1, m, g, r)
+
+
+@kernel
+def advance(method, states, torques, disks, dt, sizes, rtol, atol, status):
+    """Advances each row of ``states`` (full or lean model) by ``dt`` seconds with the integrator ``method`` (a code):
+    one fixed step, or dopri5 steps under the tolerances from the step sizes ``sizes`` (updated). ``status`` gets
+    OUT_OF_DOMAIN for a row that left the model's domain, SUBSTEP_LIMIT for one dopri5 gave up on, else RUNNING."""
+    lean = states.shape[1] == 4
+    for i in range(states.shape[0]):
+        u0, u1, m, g, r, x = torques[i, 0], torques[i, 1], disks[i, 0], disks[i, 1], disks[i, 2], states[i]
+        ok = True
+        if lean:
+            y = (x[0], x[1], x[2], x[3])
+            if method == ADAPTIVE:
+                y, sizes[i], ok = lean_advance_adaptive(y, dt, sizes[i], u0, u1, m, g, r, rtol, atol)
+            else:
+                y = _lean_step(method, y, dt, u0, u1, m, g, r)
+            store(x, y)
+        else:
+            state = (x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7])
+            if method == ADAPTIVE:
+                state, sizes[i], ok = advance_adaptive(state, dt, sizes[i], u0, u1, m, g, r, rtol, atol)
+            else:
+                state = _full_step(method, state, dt, u0, u1, m, g, r)
+            store(x, state)
+        theta = x[0] if lean else x[3]
+        finite = math.isfinite(np.sum(x))
+        status[i] = SUBSTEP_LIMIT if not ok else (RUNNING if finite and abs(theta) < LEAN_LIMIT else OUT_OF_DOMAIN)
+
+
+def source_hash(module: ModuleType) -> str:
+    """The sha256 of a module's source (a task's generated steps record their task's)."""
+    return hashlib.sha256(inspect.getsource(module).encode()).hexdigest()
+
+
+def task_steps(task) -> ModuleType:
+    """The generated steps of a task (``_generated/<name>.py``), checked against the task module's source.
+
+    Raises:
+        RuntimeError: the task module changed since its steps were generated, or they were never generated.
+    """
+    regenerate = "run `python -m rolling_disk_env.codegen`"
+    try:
+        steps = importlib.import_module(f"rolling_disk_env._generated.{task.name}")
+    except ModuleNotFoundError:
+        raise RuntimeError(f"task {task.name!r} has no generated steps: {regenerate}") from None
+    if steps.TASK_SOURCE != source_hash(inspect.getmodule(type(task))):
+        raise RuntimeError(f"task {task.name!r} changed since its steps were generated: {regenerate}")
+    return steps

@@ -1,0 +1,150 @@
+"""N disks in the engine's arrays, stepped and reset by their task's compiled kernels: what both envs run.
+
+The single env is a batch of one; the vector env a batch of N. Both call the same generated kernels
+(``_generated/<task>.py``), so the same seeds give the same transitions to the last bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from rolling_disk_env import engine
+from rolling_disk_env.envs.config import EnvConfig
+
+
+@dataclass
+class Outputs:
+    """What a step or a reset returns for N disks.
+
+    Attributes:
+        observations: (N, obs size), float32, clipped to the observation space.
+        info: (N, engine.TERMS + terms), float64: per disk, the state, energy, contact forces, normal force,
+            required friction, reward and reward terms (columns ``engine.ENERGY`` and the others).
+        flags: (N, 3), bool: terminated, truncated, success (columns ``engine.TERMINATED`` and the others).
+        status: (N,), int8: the termination code (``engine.TERMINATIONS``).
+    """
+
+    observations: np.ndarray
+    info: np.ndarray
+    flags: np.ndarray
+    status: np.ndarray
+
+    @classmethod
+    def empty(cls, num_envs: int, observation_size: int, terms: int) -> Outputs:
+        return cls(
+            np.zeros((num_envs, observation_size), dtype=np.float32),
+            np.zeros((num_envs, engine.TERMS + terms)),
+            np.zeros((num_envs, 3), dtype=bool),
+            np.zeros(num_envs, dtype=np.int8),
+        )
+
+
+class DiskBatch:
+    """The state of N disks (their episodes' disks, goals, step counts) and their compiled step and reset.
+
+    Args:
+        config: the env's checked settings.
+        num_envs: N.
+        max_episode_steps: steps before the engine truncates an episode (None: never; the single env leaves it to
+            Gymnasium's TimeLimit wrapper).
+    """
+
+    def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None):
+        task = config.task
+        steps = engine.task_steps(task)
+        self._step = getattr(steps, f"step_{config.integrator}")
+        self._step_parallel = getattr(steps, f"step_{config.integrator}_parallel")
+        self._reset = steps.reset
+        self.num_envs = num_envs
+        self.parallel = num_envs >= engine.PARALLEL_FROM and numba.get_num_threads() > 1
+        self.terms = len(task.reward_weights)
+        self.observation_size = len(task.observation_names)
+        # Per disk.
+        self.states = np.zeros((num_envs, 8))
+        self.disks = np.tile(np.array(config.params.constants), (num_envs, 1))
+        self.goals = np.zeros((num_envs, len(task.goal_names)))
+        self.steps = np.zeros(num_envs, dtype=np.int64)
+        self.sizes = np.zeros(num_envs)
+        # Tracking errors, summed, for the success rule TRACK; grown as episodes get longer.
+        tracked = task.success == engine.TRACK
+        self.error_sums = np.zeros((num_envs, (max_episode_steps or 1024) + 1 if tracked else 1))
+        self.uniforms = np.zeros((num_envs, config.draws))
+        self.no_state = np.full((num_envs, 8), np.nan)
+        # Settings.
+        self.config = config.engine_config(max_episode_steps)
+        self.actuators = config.actuators_array
+        self.disk_ranges = config.disk_ranges
+        self.ranges = config.ranges
+        self.settings = task.settings
+        self.weights = task.weights
+        self.bounds = task.observation_high
+        self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
+
+    def outputs(self) -> Outputs:
+        return Outputs.empty(self.num_envs, self.observation_size, self.terms)
+
+    def reset(
+        self, mask: np.ndarray, out: Outputs, rngs: np.ndarray | None = None, states: np.ndarray | None = None
+    ) -> None:
+        """Starts new episodes in the disks of ``mask``, writing their outputs into ``out``.
+
+        Args:
+            mask: (N,), bool.
+            out: where the disks' first observation and info go.
+            rngs: (N, 4) uint64 PCG64 states to draw the episodes from (:mod:`rolling_disk_env.pcg64`); None to use
+                the uniforms already in :attr:`uniforms`.
+            states: (N, 8) initial states that replace the drawn ones (rows of NaN: none), or None.
+        """
+        self._reset(
+            mask,
+            self._no_rngs if rngs is None else rngs,
+            self.uniforms,
+            self.no_state if states is None else states,
+            self.states,
+            self.disks,
+            self.goals,
+            self.steps,
+            self.sizes,
+            self.error_sums,
+            self.config,
+            self.disk_ranges,
+            self.ranges,
+            self.settings,
+            self.bounds,
+            out.observations,
+            out.info,
+            out.flags,
+            out.status,
+        )
+
+    def step(self, actions: np.ndarray, skip: np.ndarray, out: Outputs) -> int:
+        """Steps the disks not in ``skip`` under normalized ``actions`` (N, A), writing their outputs into ``out``.
+
+        Returns:
+            The first disk whose action is not finite (then nothing was stepped), or -1.
+        """
+        if self.error_sums.shape[1] > 1 and self.steps.max() + 1 >= self.error_sums.shape[1]:
+            self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
+        step = self._step_parallel if self.parallel else self._step
+        return step(
+            skip,
+            actions,
+            self.states,
+            self.disks,
+            self.goals,
+            self.steps,
+            self.sizes,
+            self.error_sums,
+            self.config,
+            self.actuators,
+            self.settings,
+            self.weights,
+            self.bounds,
+            out.observations,
+            out.info,
+            out.flags,
+            out.status,
+        )

@@ -1,0 +1,78 @@
+"""How the package compiles: every compiled function is declared with :data:`kernel` or :data:`parallel_kernel`.
+
+Kernels are plain Python functions of floats and numpy arrays, compiled by numba on first call and cached on disk
+(``cache=True``): in ``__pycache__`` next to the module, or, where that is not writable (a read-only site-packages),
+in numba's user-wide cache directory (``~/.cache/numba`` or ``NUMBA_CACHE_DIR``). ``NUMBA_DISABLE_JIT=1`` runs every
+kernel as plain Python (slow: for debugging, and for the tests that compare compiled and interpreted results).
+
+Numba judges a cached kernel fresh by the source of the file that defines it, but a kernel also holds the code of
+the kernels it calls from other files (a task's step calls the generated model, the engine, the task module) and the
+module constants it reads. So the package's kernels are cached under a stamp of *all* the package's source files
+(:class:`PackageCacheLocator`): editing any of them recompiles, instead of running stale code.
+
+Arithmetic is IEEE: no ``fastmath``, so a compiled kernel gives the interpreted result to the last bit, and the same
+kernel serves one disk and a batch. Division by zero gives inf or NaN as in numpy (``error_model="numpy"``) instead of
+raising; the callers check states for finiteness.
+
+Importing this module imports numba (about 0.3 s): the package imports it only when a kernel is first needed.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+
+import numba
+from numba.core import caching
+
+PACKAGE = Path(__file__).resolve().parent
+
+
+@functools.cache
+def package_stamp() -> str:
+    """A hash of every Python source file of the package (read once per process)."""
+    digest = hashlib.sha256()
+    for path in sorted(PACKAGE.rglob("*.py")):
+        digest.update(str(path.relative_to(PACKAGE)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+class _PackageStamp:
+    """A numba cache locator for the package's files only, stamped with :func:`package_stamp`."""
+
+    def get_source_stamp(self):
+        return package_stamp()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        return super().from_function(py_func, py_file) if PACKAGE in Path(py_file).resolve().parents else None
+
+
+class PackageUserProvidedCacheLocator(_PackageStamp, caching.UserProvidedCacheLocator):
+    """In ``NUMBA_CACHE_DIR``, when it is set."""
+
+
+class PackageInTreeCacheLocator(_PackageStamp, caching.InTreeCacheLocator):
+    """In ``__pycache__`` beside the module."""
+
+
+class PackageUserWideCacheLocator(_PackageStamp, caching.UserWideCacheLocator):
+    """In numba's user-wide cache directory, where the package's folder is read-only."""
+
+
+def _use_package_stamps() -> None:
+    locators = caching.CacheImpl._locator_classes  # numba's cache locators, tried in order
+    ours = [PackageUserProvidedCacheLocator, PackageInTreeCacheLocator, PackageUserWideCacheLocator]
+    locators[:] = ours + [locator for locator in locators if locator not in ours]
+
+
+_use_package_stamps()
+
+kernel = numba.njit(cache=True, error_model="numpy")
+"""Compiles a function of one disk (or a serial loop), cached."""
+parallel_kernel = numba.njit(cache=True, error_model="numpy", parallel=True)
+"""Compiles a loop over a batch whose ``prange`` iterations run on numba's threads (``NUMBA_NUM_THREADS``)."""
+prange = numba.prange
+"""``range`` whose iterations a :data:`parallel_kernel` spreads over threads (in a :data:`kernel`, plain range)."""
