@@ -1,7 +1,10 @@
 """rolling-disk-env: a disk rolling without slipping on a plane (L. Jaulin's SymPy model) as a Gymnasium env.
 
-Importing the package registers ``"RollingDisk-v0"`` with Gymnasium (idempotently, so that ``SubprocVecEnv``
-children, which import it again, find the id).
+Importing the package registers ``"RollingDisk-v0"`` and one id per task (:data:`TASK_IDS`) with Gymnasium
+(idempotently, so that ``SubprocVecEnv`` children, which import it again, find the ids).
+
+It imports neither SymPy nor numba nor torch: the envs (and with them the compiled engine) load on first use, through
+``gymnasium.make`` or the attributes ``RollingDiskEnv`` and ``RollingDiskVectorEnv``.
 """
 
 from gymnasium.envs.registration import register, registry
@@ -14,25 +17,53 @@ from rolling_disk_env.dynamics import (
     contact_force,
     energy,
     lean_derivative,
+    lean_jacobians,
     lean_state,
     state_derivative,
-    steady_circle_spin_rate,
+    steady_motion,
+    steady_motion_eigenvalues,
 )
-from rolling_disk_env.envs import RollingDiskEnv, RollingDiskVectorEnv
 from rolling_disk_env.integrators import METHODS, simulate
 
 ENV_ID = "RollingDisk-v0"
+"""The general id: task ``"upright"`` by default, every keyword argument accepted (``task=`` included)."""
 MAX_EPISODE_STEPS = 500
 """Steps of 0.02 s in an episode (10 s)."""
+TASK_SPECS = (
+    ("upright", "RollingDiskUpright-v0", 450.0),
+    ("circle", "RollingDiskCircle-v0", 450.0),
+)
+"""One id per task, with the task fixed: ``(task, id, reward_threshold)``. A new task's id is one more line."""
+TASK_IDS = {task: env_id for task, env_id, _ in TASK_SPECS}
+"""The id of each task (the ids rl-baselines3-zoo's hyperparameter files are keyed by)."""
 
-if ENV_ID not in registry:
-    register(
-        id=ENV_ID,
-        entry_point="rolling_disk_env.envs:RollingDiskEnv",
-        vector_entry_point="rolling_disk_env.envs:RollingDiskVectorEnv",
-        max_episode_steps=MAX_EPISODE_STEPS,
-        reward_threshold=450.0,
-    )
+
+def _register() -> None:
+    """Registers the ids that are missing: idempotent, as SubprocVecEnv children import the package again."""
+    specs = [(ENV_ID, {}, 450.0), *((env_id, {"task": task}, threshold) for task, env_id, threshold in TASK_SPECS)]
+    for env_id, kwargs, threshold in specs:
+        if env_id not in registry:
+            register(
+                id=env_id,
+                entry_point="rolling_disk_env.envs:RollingDiskEnv",
+                vector_entry_point="rolling_disk_env.envs:RollingDiskVectorEnv",
+                max_episode_steps=MAX_EPISODE_STEPS,
+                reward_threshold=threshold,
+                kwargs=kwargs,
+            )
+
+
+_register()
+
+
+def __getattr__(name: str):
+    """The envs, imported on first use (they compile the engine's kernels)."""
+    if name in ("RollingDiskEnv", "RollingDiskVectorEnv"):
+        from rolling_disk_env import envs
+
+        return getattr(envs, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "ENV_ID",
@@ -40,6 +71,7 @@ __all__ = [
     "LEAN_MARGIN",
     "MAX_EPISODE_STEPS",
     "METHODS",
+    "TASK_IDS",
     "DiskParams",
     "OutOfDomainError",
     "RollingDiskEnv",
@@ -47,8 +79,10 @@ __all__ = [
     "contact_force",
     "energy",
     "lean_derivative",
+    "lean_jacobians",
     "lean_state",
     "simulate",
     "state_derivative",
-    "steady_circle_spin_rate",
+    "steady_motion",
+    "steady_motion_eigenvalues",
 ]

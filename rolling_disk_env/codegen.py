@@ -191,7 +191,8 @@ TABLEAUS = (
     Tableau("euler", "explicit Euler (order 1)", _fractions([]), _fractions([1])[0]),
     Tableau(
         "symplectic_euler",
-        "semi-implicit Euler (order 1): velocities from the accelerations at x, then coordinates from the new velocities",
+        "semi-implicit Euler (order 1): velocities from the accelerations at x, then coordinates from the new "
+        "velocities",
         a=_fractions([], [0]),
         b=_fractions([0, 1])[0],
         a_velocity=_fractions([], [1]),
@@ -324,7 +325,8 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
     else:
         body.append(f"return ({new_state})")
     doc = f"One step of dt seconds of {tableau.doc} on the {_MODEL_NAMES[model]} model; returns {returns}."
-    lines = ["@kernel", _signature(name, argument, ("dt",), tolerances), f'    """{doc}"""', *(f"    {line}" for line in body)]
+    signature = _signature(name, argument, ("dt",), tolerances)
+    lines = ["@kernel", signature, f'    """{doc}"""', *(f"    {line}" for line in body)]
     return "\n".join(lines) + "\n"
 
 
@@ -456,7 +458,8 @@ def reset(mask, rngs, uniforms, given, states, disks, goals, steps, sizes, error
 _ADVANCE = {
     "dopri5": (
         "    state, sizes[i], ok = engine.advance_adaptive(\n"
-        "        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2], config[RTOL], config[ATOL]\n"
+        "        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2],\n"
+        "        config[RTOL], config[ATOL],\n"
         "    )"
     ),
     "fixed": (

@@ -21,6 +21,10 @@ Extension beyond the paper: two input torques applied to the disk, in N m,
 mapped to generalized forces by virtual power, ``Q_torque = J_omega(q)^T T`` with ``omega_world = J_omega(q) dq/dt``.
 The result is control-affine: ``ddq = f(q, dq) + B(q) u`` and ``lambda = lambda_f(q, dq) + lambda_B(q) u``, with
 ``u = (tau_spin, tau_steer)``.
+
+Also derived: the vertical ground reaction ``N = m (g + c3'')``, ``c3 = r cos(theta)`` being the centre's height (N).
+With the horizontal reaction lambda it says when rolling holds: the contact slips unless ``|lambda| <= mu N`` for
+the friction coefficient mu, and lifts off unless ``N > 0``.
 """
 
 from __future__ import annotations
@@ -102,6 +106,10 @@ class Derivation:
         multipliers_input: ``d lambda / d u`` (2 x 2).
         accelerations_free: ``ddq`` with zero torque, ``f(q, dq)`` (5 rows).
         accelerations_input: ``B(q) = d ddq / d u`` (5 x 2).
+        normal_force_free: the vertical ground reaction ``N = m (g + c3'')`` with zero torque (N), ``c3 = r cos(theta)``
+            the centre's height, written with the model's accelerations: a function of ``(theta, dphi, dtheta,
+            dpsi)``.
+        normal_force_input: ``d N / d u`` (1 x 2); zero, as the torques do not reach ``ddtheta``.
     """
 
     rotation: sp.Matrix
@@ -121,6 +129,8 @@ class Derivation:
     multipliers_input: sp.Matrix
     accelerations_free: sp.Matrix
     accelerations_input: sp.Matrix
+    normal_force_free: sp.Expr
+    normal_force_input: sp.Matrix
 
     @property
     def multipliers(self) -> sp.Matrix:
@@ -131,6 +141,11 @@ class Derivation:
     def accelerations(self) -> sp.Matrix:
         """``ddq(q, dq, u) = f + B u``."""
         return self.accelerations_free + self.accelerations_input * torques
+
+    @property
+    def normal_force(self) -> sp.Expr:
+        """``N(q, dq, u) = N_free + N_input u``, the vertical ground reaction on the disk (N)."""
+        return self.normal_force_free + (self.normal_force_input * torques)[0]
 
 
 def _simplify(matrix: sp.Matrix) -> sp.Matrix:
@@ -185,6 +200,14 @@ def derive() -> Derivation:
     solution_free = _simplify(mass_matrix.LUsolve(rhs.subs(zero_torque)))
     solution_input = _simplify(mass_matrix.LUsolve(rhs.jacobian(torques)))
 
+    # Extension: the vertical ground reaction. The contact keeps the centre at height c3 = r cos(theta), so Newton's
+    # law for the centre along z, m c3'' = N - m g, gives N once c3'' is written with the model's ddtheta.
+    height_acceleration = to_symbols(centre_t[2].diff(t, 2))
+    accelerations = {ddtheta: solution_free[5] + (solution_input[5, :] * torques)[0]}
+    normal_force = sp.expand(m * (g + height_acceleration.subs(accelerations)))
+    normal_force_free = sp.simplify(normal_force.subs(zero_torque))
+    normal_force_input = sp.Matrix([normal_force]).jacobian(torques).applyfunc(sp.simplify)
+
     return Derivation(
         rotation=rotation,
         omega_body=to_symbols(omega_body_t),
@@ -203,4 +226,6 @@ def derive() -> Derivation:
         multipliers_input=solution_input[:2, :],
         accelerations_free=solution_free[2:, :],
         accelerations_input=solution_input[2:, :],
+        normal_force_free=normal_force_free,
+        normal_force_input=normal_force_input,
     )

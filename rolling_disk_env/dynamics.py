@@ -9,17 +9,16 @@ model's domain is ``|theta| < LEAN_LIMIT = pi/2 - LEAN_MARGIN``; a state outside
 
 The reduced *lean* model keeps ``y = (theta, dphi, dtheta, dpsi)``: ``c1, c2, phi, psi`` are ignorable (no equation
 depends on them but the centre's velocity, which depends on ``psi``), so ``y`` evolves on its own.
+
+The functions run on the compiled engine (:mod:`rolling_disk_env.engine`), imported on first call.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-
-from rolling_disk_env._generated import batched, scalar
 
 STATE_NAMES = ("c1", "c2", "phi", "theta", "psi", "dphi", "dtheta", "dpsi")
 LEAN_NAMES = ("theta", "dphi", "dtheta", "dpsi")
@@ -46,6 +45,20 @@ class OutOfDomainError(ValueError):
         self.theta = theta
 
 
+def is_number(value) -> bool:
+    """Whether ``value`` is a real number: a Python or numpy integer or float, but not a bool."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
+def number_pair(value, name: str, pair: str = "(low, high)") -> tuple[float, float]:
+    """``value`` as two floats if it is a pair of numbers (Python or numpy, not bools); else ``ValueError`` naming
+    ``name`` and the ``pair`` expected."""
+    items = list(value) if isinstance(value, (tuple, list, np.ndarray)) else None
+    if items is None or len(items) != 2 or not all(is_number(item) for item in items):
+        raise ValueError(f"{name} must be a {pair} pair of numbers, got {value!r}")
+    return float(items[0]), float(items[1])
+
+
 @dataclass(frozen=True)
 class DiskParams:
     """A thin uniform disk rolling on a horizontal plane.
@@ -61,10 +74,12 @@ class DiskParams:
     gravity: float = 9.81
 
     def __post_init__(self) -> None:
+        """Checks each field (a Python or numpy number, not a bool) and stores it as a Python float."""
         for name in ("mass", "radius", "gravity"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            if not (is_number(value) and math.isfinite(value) and value > 0):
                 raise ValueError(f"DiskParams.{name} must be a finite number > 0, got {value!r}")
+            object.__setattr__(self, name, float(value))
 
     @property
     def constants(self) -> tuple[float, float, float]:
@@ -90,25 +105,29 @@ class DiskParams:
 DEFAULT_PARAMS = DiskParams()
 
 
+def check_params(params) -> DiskParams:
+    """``params`` if it is a :class:`DiskParams`, :data:`DEFAULT_PARAMS` for None; else ``TypeError``."""
+    if params is None:
+        return DEFAULT_PARAMS
+    if not isinstance(params, DiskParams):
+        raise TypeError(
+            f"params must be a DiskParams, e.g. DiskParams(mass=1.0), or None, got {type(params).__name__}: {params!r}"
+        )
+    return params
+
+
 @dataclass(frozen=True)
 class Model:
-    """A set of state equations, in the generated code's calling convention.
+    """A set of state equations.
 
     Attributes:
         name: ``"full"`` or ``"lean"``.
         names: the state components, in order.
-        scalar: ``f(x, k, h, tau_spin, tau_steer, m, g, r)``, dx/dt at ``x + h k`` for one disk (floats).
-        batched: the same for component-major arrays of shape (size, N), writing into a last argument ``out``.
-        scalar_rk4: ``step(x, dt, tau_spin, tau_steer, m, g, r)``, one RK4 step of one disk with the four stages
-            written out: the arithmetic of ``integrators.rk4`` on ``scalar``, to the last bit, in less time.
         lean_index: where theta sits in the state.
     """
 
     name: str
     names: tuple[str, ...]
-    scalar: Callable
-    batched: Callable
-    scalar_rk4: Callable
     lean_index: int
 
     @property
@@ -116,12 +135,8 @@ class Model:
         return len(self.names)
 
 
-FULL_MODEL = Model(
-    "full", STATE_NAMES, scalar.state_derivative, batched.state_derivative, scalar.state_rk4_step, lean_index=3
-)
-LEAN_MODEL = Model(
-    "lean", LEAN_NAMES, scalar.lean_derivative, batched.lean_derivative, scalar.lean_rk4_step, lean_index=0
-)
+FULL_MODEL = Model("full", STATE_NAMES, lean_index=3)
+LEAN_MODEL = Model("lean", LEAN_NAMES, lean_index=0)
 MODELS = {model.name: model for model in (FULL_MODEL, LEAN_MODEL)}
 
 
@@ -150,9 +165,11 @@ def check_states(state, model: Model = FULL_MODEL, name: str = "state") -> np.nd
 
 
 def check_torques(torque, batch: int | None) -> np.ndarray:
-    """Validates ``torque``: None (zero), (2,) or, for a batch of N states, (N, 2); returns float64, shape (2, N)."""
+    """Validates ``torque``: None (zero), (2,) or, for a batch of N states, (N, 2); returns float64 rows, shape
+    (N, 2) (N = 1 for one state)."""
+    rows = 1 if batch is None else batch
     if torque is None:
-        return np.zeros((2, 1 if batch is None else batch))
+        return np.zeros((rows, 2))
     array = np.asarray(torque, dtype=np.float64)
     valid = array.shape == (2,) or (batch is not None and array.shape == (batch, 2))
     if not valid:
@@ -160,17 +177,20 @@ def check_torques(torque, batch: int | None) -> np.ndarray:
         raise ValueError(f"torque must have shape {expected} = [tau_spin, tau_steer] in N m, got {array.shape}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"torque must be finite, got {array}")
-    return np.broadcast_to(array, (1 if batch is None else batch, 2)).T
+    return np.ascontiguousarray(np.broadcast_to(array, (rows, 2)))
 
 
-def _evaluate(model: Model, state, torque, params: DiskParams | None) -> np.ndarray:
+def disk_rows(params: DiskParams | None, rows: int) -> np.ndarray:
+    """The constants ``(m, g, r)`` of ``params`` (checked) repeated in ``rows`` rows, the engine's layout."""
+    return np.tile(np.array(check_params(params).constants), (rows, 1))
+
+
+def _rows(model: Model, state, torque, params: DiskParams | None):
+    """The checked arguments of the engine's model loops: rows of states, torques and disk constants."""
     x = check_states(state, model)
-    batch = None if x.ndim == 1 else x.shape[0]
-    u = check_torques(torque, batch)
-    rows = x.reshape(-1, model.size)
-    out = np.empty_like(rows)
-    model.batched(rows.T, rows.T, 0.0, u[0], u[1], *(params or DEFAULT_PARAMS).constants, out.T)
-    return out.reshape(x.shape)
+    torques = check_torques(torque, None if x.ndim == 1 else x.shape[0])
+    rows = np.ascontiguousarray(x.reshape(-1, model.size))
+    return x.shape, rows, torques, disk_rows(params, rows.shape[0])
 
 
 def state_derivative(state, torque=None, params: DiskParams | None = None) -> np.ndarray:
@@ -184,12 +204,22 @@ def state_derivative(state, torque=None, params: DiskParams | None = None) -> np
     Returns:
         ``(dc1, dc2, dphi, dtheta, dpsi, ddphi, ddtheta, ddpsi)``, same shape as ``state``.
     """
-    return _evaluate(FULL_MODEL, state, torque, params)
+    from rolling_disk_env import engine
+
+    shape, rows, torques, disks = _rows(FULL_MODEL, state, torque, params)
+    out = np.empty_like(rows)
+    engine.derivatives(rows, torques, disks, out)
+    return out.reshape(shape)
 
 
 def lean_derivative(lean_state, torque=None, params: DiskParams | None = None) -> np.ndarray:
     """dy/dt of the reduced lean model, ``y = (theta, dphi, dtheta, dpsi)``, shape (4,) or (N, 4)."""
-    return _evaluate(LEAN_MODEL, lean_state, torque, params)
+    from rolling_disk_env import engine
+
+    shape, rows, torques, disks = _rows(LEAN_MODEL, lean_state, torque, params)
+    out = np.empty_like(rows)
+    engine.derivatives(rows, torques, disks, out)
+    return out.reshape(shape)
 
 
 def lean_state(state) -> np.ndarray:
@@ -197,19 +227,19 @@ def lean_state(state) -> np.ndarray:
     return np.asarray(state, dtype=np.float64)[..., LEAN_INDICES]
 
 
-def _diagnostics(state, torque, params: DiskParams | None) -> tuple[np.ndarray, np.ndarray]:
-    x = check_states(state)
-    batch = None if x.ndim == 1 else x.shape[0]
-    u = check_torques(torque, batch)
-    rows = x.reshape(-1, 8)
-    out = np.empty((3, rows.shape[0]))
-    batched.diagnostics(rows.T, u[0], u[1], *(params or DEFAULT_PARAMS).constants, out)
-    return (out[0, 0], out[1:, 0]) if batch is None else (out[0], out[1:].T)
+def _diagnostics(state, torque, params: DiskParams | None) -> np.ndarray:
+    """Energy (J), lambda1, lambda2, normal force (N) and required friction of each state: shape (5,) or (N, 5)."""
+    from rolling_disk_env import engine
+
+    shape, rows, torques, disks = _rows(FULL_MODEL, state, torque, params)
+    out = np.empty((rows.shape[0], 5))
+    engine.diagnostics(rows, torques, disks, out)
+    return out[0] if len(shape) == 1 else out
 
 
 def energy(state, params: DiskParams | None = None) -> float | np.ndarray:
     """Kinetic plus potential energy (J), potential zero at the plane: a float, or shape (N,) for a batch."""
-    value = _diagnostics(state, None, params)[0]
+    value = _diagnostics(state, None, params)[..., 0]
     return float(value) if np.ndim(value) == 0 else value
 
 
@@ -219,7 +249,22 @@ def contact_force(state, torque=None, params: DiskParams | None = None) -> np.nd
     Returns:
         shape (2,) or (N, 2).
     """
-    return _diagnostics(state, torque, params)[1]
+    return _diagnostics(state, torque, params)[..., 1:3]
+
+
+def normal_force(state, torque=None, params: DiskParams | None = None) -> float | np.ndarray:
+    """The vertical ground reaction on the disk, ``N = m (g + c3'')`` with ``c3 = r cos(theta)`` the centre's height
+    (N): a float, or shape (N,) for a batch. The disk stays on the plane only while N > 0."""
+    value = _diagnostics(state, torque, params)[..., 3]
+    return float(value) if np.ndim(value) == 0 else value
+
+
+def required_friction(state, torque=None, params: DiskParams | None = None) -> float | np.ndarray:
+    """The friction coefficient the contact needs to roll without slipping, ``|lambda| / N`` (dimensionless; inf
+    where N <= 0, the disk lifting off): a float, or shape (N,) for a batch. A real contact of friction coefficient
+    mu slips where this exceeds mu."""
+    value = _diagnostics(state, torque, params)[..., 4]
+    return float(value) if np.ndim(value) == 0 else value
 
 
 def rotation_matrix(phi: float, theta: float, psi: float) -> np.ndarray:
@@ -242,14 +287,46 @@ def rotation_matrix(phi: float, theta: float, psi: float) -> np.ndarray:
     )
 
 
-def steady_circle_spin_rate(theta: float, dpsi: float, params: DiskParams | None = None) -> float:
-    """The paper's circle condition (Case 3): the spin rate that keeps ``theta`` constant at heading rate ``dpsi``.
+def steady_motion(theta: float, dpsi: float, params: DiskParams | None = None) -> float:
+    """The spin rate that makes the motion with constant lean ``theta`` and heading rate ``dpsi`` steady.
 
-    ``dphi = 2 g tan(theta) / (3 r dpsi) + 5 dpsi sin(theta) / 6`` (rad/s); the centre then moves on a circle.
+    A steady motion keeps ``theta``, ``dphi`` and ``dpsi`` constant (``dtheta = 0``, zero torque): the centre moves on
+    a circle of radius ``r (dphi - dpsi sin(theta)) / dpsi`` at speed ``r (dphi - dpsi sin(theta))``. With
+    ``dtheta = 0``, ``ddphi = ddpsi = 0`` hold by themselves and ``ddtheta = 0`` is the paper's circle condition
+    (Case 3), solved for the spin rate:
+    ``dphi = 2 g tan(theta) / (3 r dpsi) + 5 dpsi sin(theta) / 6``.
+
+    With ``dpsi = 0`` the condition reads ``4 g sin(theta) / (5 r) = 0``: a leaning disk must turn, and the vertical
+    disk rolling straight (``theta = dpsi = 0``) is steady at *every* spin rate. Both raise, as no single spin rate
+    answers; :func:`steady_motion_eigenvalues` takes the spin rate of straight rolling as its ``dphi`` argument.
+
+    Args:
+        theta: lean (rad), ``|theta| < LEAN_LIMIT``; > 0 with ``dpsi > 0`` leans into a counter-clockwise turn.
+        dpsi: heading rate (rad/s), nonzero.
+        params: the disk; default ``DiskParams()``.
+
+    Returns:
+        ``dphi`` (rad/s).
+
+    Raises:
+        OutOfDomainError: ``|theta| >= LEAN_LIMIT``.
+        ValueError: ``dpsi = 0``, or a value that is not finite.
     """
-    p = params or DEFAULT_PARAMS
+    p = check_params(params)
+    if not (math.isfinite(theta) and math.isfinite(dpsi)):
+        raise ValueError(f"theta and dpsi must be finite, got theta = {theta!r} rad and dpsi = {dpsi!r} rad/s")
+    if abs(theta) >= LEAN_LIMIT:
+        raise OutOfDomainError(
+            f"theta = {theta:.6g} rad is outside the model's domain |theta| < {LEAN_LIMIT:.6g} (pi/2 - {LEAN_MARGIN})",
+            theta=theta,
+        )
     if dpsi == 0:
-        raise ValueError("dpsi must be nonzero: a steady circle turns")
+        if theta == 0:
+            raise ValueError(
+                "theta = dpsi = 0 is straight vertical rolling, steady at every spin rate dphi: "
+                "there is no spin rate to solve for"
+            )
+        raise ValueError(f"dpsi must be nonzero for theta = {theta:.6g} rad: a leaning disk is steady only if it turns")
     return 2 * p.gravity * math.tan(theta) / (3 * p.radius * dpsi) + 5 * dpsi * math.sin(theta) / 6
 
 
@@ -257,57 +334,93 @@ def steady_circle(radius: float, speed: float, params: DiskParams | None = None)
     """The steady circle whose centre path has ``radius`` (m) at ``speed`` (m/s), turning counter-clockwise.
 
     With theta and the rates constant, the centre moves at ``v = r (dphi - dpsi sin(theta))`` and turns at ``dpsi``,
-    so ``dpsi = v / R``. The paper's circle condition (:func:`steady_circle_spin_rate`) then reads
+    so ``dpsi = v / R``. The paper's circle condition (:func:`steady_motion`) then reads
     ``v / r + dpsi sin(theta) / 6 = 2 g tan(theta) / (3 r dpsi)``, increasing in theta while ``dpsi^2 < 4 g / r``;
-    it is solved by Newton's method (:func:`steady_circles` solves many at once).
+    the engine solves it by Newton's method (``engine.steady_circle``, which the circle task's episodes use too).
 
     Returns:
         ``(theta, dphi, dpsi)``: lean (rad, > 0: leaning into the turn), spin and heading rates (rad/s).
-    """
-    p = params or DEFAULT_PARAMS
-    theta, dphi, dpsi = steady_circles(radius, speed, p.gravity, p.radius)
-    return float(theta), float(dphi), float(dpsi)
-
-
-def steady_circles(radius, speed, gravity, disk_radius) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`steady_circle` for arrays: path radius (m), speed (m/s), gravity (m/s^2) and disk radius (m) are floats
-    or arrays, broadcast together; returns the arrays ``(theta, dphi, dpsi)``. Each circle takes the Newton steps
-    it would take alone, so the results equal those of :func:`steady_circle` one by one.
 
     Raises:
         ValueError: a radius or speed that is not finite and > 0, or a circle too tight to be steady or to stay in
             the model's domain.
     """
-    radius, speed, gravity, disk_radius = np.broadcast_arrays(
-        *(np.asarray(v, dtype=np.float64) for v in (radius, speed, gravity, disk_radius))
-    )
-    bad = ~(np.isfinite(radius) & (radius > 0) & np.isfinite(speed) & (speed > 0))
-    if bad.any():
-        i = np.flatnonzero(bad)[0]
-        raise ValueError(f"radius and speed must be finite and > 0, got {radius.flat[i]} m and {speed.flat[i]} m/s")
+    from rolling_disk_env import engine
+
+    p = check_params(params)
+    if not (is_number(radius) and is_number(speed) and radius > 0 and speed > 0 and math.isfinite(radius + speed)):
+        raise ValueError(f"radius and speed must be finite numbers > 0, got {radius!r} m and {speed!r} m/s")
     dpsi = speed / radius
-    too_tight = dpsi * dpsi >= 4 * gravity / disk_radius
-    if too_tight.any():
-        i = np.flatnonzero(too_tight)[0]
+    if dpsi * dpsi >= 4 * p.gravity / p.radius:
         raise ValueError(
-            f"no steady circle turns at dpsi = {dpsi.flat[i]:.3g} rad/s >= 2 sqrt(g / r): raise the radius"
+            f"no steady circle of radius {radius} m at {speed} m/s: it turns at dpsi = {dpsi:.3g} rad/s >= "
+            f"2 sqrt(g / r) = {2 * math.sqrt(p.gravity / p.radius):.3g} rad/s; raise the radius or lower the speed"
         )
-    a, b, c = 2 * gravity / (3 * disk_radius * dpsi), dpsi / 6, speed / disk_radius
-    # excess(theta) = a tan(theta) - b sin(theta) - c is increasing and convex on [0, pi/2), so Newton's method
-    # converges monotonically from any point right of the root, such as atan((b + c) / a), where excess >= 0.
-    theta = np.arctan((b + c) / a)
-    converged = np.zeros(theta.shape, dtype=bool)
-    for _ in range(50):
-        cos_theta = np.cos(theta)
-        step = (a * np.tan(theta) - b * np.sin(theta) - c) / (a / (cos_theta * cos_theta) - b * cos_theta)
-        theta = np.where(converged, theta, theta - step)
-        converged |= np.abs(step) < 1e-15
-        if converged.all():
-            break
-    too_lean = ~(theta < LEAN_LIMIT)
-    if too_lean.any():
-        i = np.flatnonzero(too_lean)[0]
+    theta, dphi, dpsi = engine.steady_circle(float(radius), float(speed), p.gravity, p.radius)
+    if math.isnan(theta):
+        raise ValueError(f"the steady circle of radius {radius} m at {speed} m/s would lean past the model's domain")
+    return theta, dphi, dpsi
+
+
+def lean_jacobians(lean_state, torque=None, params: DiskParams | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The lean model linearized: ``d(dy/dt) = A dy + B du`` about ``y = (theta, dphi, dtheta, dpsi)`` and ``u``.
+
+    From the generated SymPy Jacobians of the lean model.
+
+    Args:
+        lean_state: ``y``, shape (4,) (rad, rad/s).
+        torque: None (zero) or ``u = [tau_spin, tau_steer]`` (N m), shape (2,).
+        params: the disk; default ``DiskParams()``.
+
+    Returns:
+        ``A = d(dy/dt)/dy``, shape (4, 4) (rows and columns in the order of ``y``), and ``B = d(dy/dt)/du``, shape
+        (4, 2) (columns ``tau_spin``, ``tau_steer``; rad/s^2 per N m in its last three rows).
+    """
+    y = check_states(lean_state, LEAN_MODEL, "lean_state")
+    if y.ndim != 1:
+        raise ValueError(f"lean_state must have shape (4,), got {y.shape}")
+    from rolling_disk_env._generated import kernels
+
+    u = check_torques(torque, None)[0]
+    entries = kernels.lean_jacobians(tuple(y.tolist()), float(u[0]), float(u[1]), *check_params(params).constants)
+    jacobians = np.array(entries, dtype=np.float64)
+    return jacobians[:16].reshape(4, 4), jacobians[16:].reshape(4, 2)
+
+
+def steady_motion_eigenvalues(
+    theta: float, dpsi: float, params: DiskParams | None = None, *, dphi: float | None = None
+) -> np.ndarray:
+    """The eigenvalues of the lean model linearized about the steady motion ``(theta, steady_motion(theta, dpsi),
+    0, dpsi)``, zero torque (1/s).
+
+    Steady motions form a two-parameter family of equilibria of the lean model, so two eigenvalues are zero (up to
+    round-off); the other two are ``+-sqrt(k)``. The disk conserves energy: a steady motion is stable when ``k < 0``
+    (a purely imaginary pair: the lean oscillates about it) and unstable when ``k > 0``. Numerically, real parts
+    within a small tolerance of zero (about 1e-7 of the largest eigenvalue's size) mean stable.
+
+    Args:
+        theta: lean (rad), ``|theta| < LEAN_LIMIT``.
+        dpsi: heading rate (rad/s).
+        params: the disk; default ``DiskParams()``.
+        dphi: the spin rate (rad/s) of straight vertical rolling, ``theta = dpsi = 0``, which is steady at every spin
+            rate; required there and only there (elsewhere :func:`steady_motion` gives it).
+
+    Returns:
+        4 complex eigenvalues, shape (4,), sorted by decreasing real part.
+
+    Raises:
+        OutOfDomainError: ``|theta| >= LEAN_LIMIT``.
+        ValueError: no steady motion (``dpsi = 0``, ``theta != 0``), or ``dphi`` missing or superfluous.
+    """
+    straight = theta == 0 and dpsi == 0
+    if straight and dphi is None:
+        raise ValueError("theta = dpsi = 0 is straight vertical rolling, steady at every spin rate: pass its dphi")
+    if not straight and dphi is not None:
         raise ValueError(
-            f"the steady circle of radius {radius.flat[i]} m at {speed.flat[i]} m/s would lean past the model's domain"
+            f"dphi is only for straight vertical rolling (theta = dpsi = 0); at theta = {theta!r} rad and "
+            f"dpsi = {dpsi!r} rad/s the steady spin rate is steady_motion(theta, dpsi)"
         )
-    return theta, speed / disk_radius + dpsi * np.sin(theta), dpsi
+    spin = dphi if straight else steady_motion(theta, dpsi, params)
+    a, _ = lean_jacobians((theta, spin, 0.0, dpsi), params=params)
+    eigenvalues = np.linalg.eigvals(a)
+    return eigenvalues[np.argsort(-eigenvalues.real, kind="stable")]

@@ -34,7 +34,7 @@ from rolling_disk_env._generated import kernels
 from rolling_disk_env.dynamics import LEAN_LIMIT
 from rolling_disk_env.integrators import ENGINE_METHODS
 from rolling_disk_env.jit import kernel
-from rolling_disk_env.tasks.base import FALLEN, REACH, REACHED, RUNNING, SURVIVE, TRACK
+from rolling_disk_env.tasks.base import RUNNING
 
 METHODS = ENGINE_METHODS
 """The engine's integrators, by code (their index): fixed steps, then the error-controlled Dormand-Prince 5(4)."""

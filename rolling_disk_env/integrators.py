@@ -182,7 +182,6 @@ def simulate(
         def torque_at(_time: float, _x: np.ndarray) -> np.ndarray:
             return constant
 
-    _contact_check(system, rows, torque_at(0.0, rows), disks, friction, 0.0)
     if method == "dop853":
         states = _simulate_dop853(system, rows, times, torque_at, disks, rtol, atol, friction)
     else:
@@ -202,6 +201,8 @@ def _simulate_engine(system: Model, method: int, rows, times, torque_at, disks, 
     status = np.zeros(len(x), dtype=np.int8)
     for i in range(1, len(times)):
         torques = torque_at(times[i - 1], x)
+        if i == 1:
+            _contact_check(system, x, torques, disks, friction, times[0])
         engine.advance(method, x, torques, disks, times[i] - times[i - 1], sizes, rtol, atol, status)
         if status.any():
             if (status == engine.SUBSTEP_LIMIT).any():

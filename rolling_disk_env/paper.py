@@ -7,6 +7,9 @@ paper's two simulations as seen from above, with the disk's rim drawn at a few i
 * scenario 1, ``x0 = (2, 0, 0, 0.1, 0, 2.5, 0, 0)``, t in [0, 10] s: a slowly falling lean and precession;
 * scenario 2, ``x0 = (2, 0, 0, 0.5, 0, dphi, 0, 1)`` with ``dphi`` from the paper's circle condition, t in [0, 6] s:
   a steady circle.
+
+It also says whether scenario 2's steady circle is stable (the eigenvalues of the lean model linearized about it)
+and what friction coefficient its contact needs (``|lambda| / N``).
 """
 
 from __future__ import annotations
@@ -19,7 +22,14 @@ import numpy as np
 import sympy as sp
 
 from rolling_disk_env import derivation as d
-from rolling_disk_env.dynamics import DEFAULT_PARAMS, steady_circle_spin_rate
+from rolling_disk_env.dynamics import (
+    DEFAULT_PARAMS,
+    contact_force,
+    normal_force,
+    required_friction,
+    steady_motion,
+    steady_motion_eigenvalues,
+)
 from rolling_disk_env.integrators import simulate
 from rolling_disk_env.rendering import rim_points
 
@@ -174,10 +184,43 @@ class Scenario:
 def scenarios() -> tuple[Scenario, Scenario]:
     """The paper's two simulations (section 3), with the default disk."""
     theta, dpsi = 0.5, 1.0
-    dphi = steady_circle_spin_rate(theta, dpsi, DEFAULT_PARAMS)
+    dphi = steady_motion(theta, dpsi, DEFAULT_PARAMS)
     return (
         Scenario("scenario1", "Scenario 1: rolling with precession", (2, 0, 0, 0.1, 0, 2.5, 0, 0), 10.0),
         Scenario("scenario2", "Scenario 2: a steady circle", (2, 0, 0, theta, 0, dphi, 0, dpsi), 6.0),
+    )
+
+
+def steady_circle_report(scenario: Scenario) -> str:
+    """Whether a steady-circle scenario is stable, and the contact force and friction coefficient it needs.
+
+    Stable means no eigenvalue with a positive real part beyond round-off: the disk conserves energy, so a stable
+    steady motion has purely imaginary eigenvalues (and two zeros, the family of steady motions).
+    """
+    state = np.array(scenario.state0, dtype=float)
+    theta, dphi, dpsi = state[3], state[5], state[7]
+    eigenvalues = steady_motion_eigenvalues(theta, dpsi, DEFAULT_PARAMS)
+    scale = max(1.0, float(np.max(np.abs(eigenvalues))))
+    # Real parts below round-off shown as zero (adding 0.0 turns -0.0 into 0.0), the largest imaginary part first.
+    shown = [complex(round(z.real / scale, 9) * scale + 0.0, z.imag + 0.0) for z in eigenvalues]
+    shown.sort(key=lambda z: (-z.real, -z.imag))
+    listed = ", ".join(f"{z.real:.4f}{z.imag:+.4f}j" for z in shown)
+    if max(z.real for z in shown) > 0:
+        verdict = f"unstable: the lean departs from it at the rate {max(z.real for z in shown):.4g} 1/s"
+    else:
+        frequency = float(np.max(np.abs(eigenvalues.imag)))
+        verdict = f"stable: purely imaginary eigenvalues, the lean oscillates about it at {frequency:.4f} rad/s"
+    horizontal = float(np.hypot(*contact_force(state, params=DEFAULT_PARAMS)))
+    weight = DEFAULT_PARAMS.mass * DEFAULT_PARAMS.gravity
+    return "\n".join(
+        [
+            f"{scenario.title} (theta = {theta:g} rad, dphi = {dphi:.4f} rad/s, dpsi = {dpsi:g} rad/s):",
+            f"  eigenvalues of the lean model linearized about it (1/s): {listed}",
+            f"  {verdict}",
+            f"  contact: N = {normal_force(state, params=DEFAULT_PARAMS):.4f} N (m g = {weight:.4f} N), "
+            f"|lambda| = {horizontal:.4f} N, friction coefficient needed mu = |lambda| / N = "
+            f"{required_friction(state, params=DEFAULT_PARAMS):.4f}",
+        ]
     )
 
 
@@ -233,6 +276,9 @@ def main(argv: list[str] | None = None) -> None:
     print("\nAgainst the paper's printed forms:")
     for name, same in compare().items():
         print(f"  {name:8s} {'matches' if same else 'DIFFERS'}")
+
+    print()
+    print(steady_circle_report(scenarios()[1]))
 
     args.out.mkdir(parents=True, exist_ok=True)
     for scenario in scenarios():

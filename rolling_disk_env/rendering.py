@@ -2,9 +2,10 @@
 
 Drawn back to front: a ground grid (1 m squares), the task's target circle, the centre's track, the disk's two
 projections as in the paper's figure 1 (in black: its shadow straight down on the ground and its projection along +y
-on a vertical wall behind it),
-then the disk itself with a spoke and a rim marker that turn with the spin phi. A text line gives time, lean and
-rates. ``"rgb_array"`` draws on an off-screen surface and never opens a display.
+on a vertical wall behind it), then the disk itself with a spoke and a rim marker that turn with the spin phi. A text
+line gives time, lean and rates; a legend explains the colours. The camera follows the disk smoothly, framing the
+target circle as well while the disk is near it. ``"rgb_array"`` draws on an off-screen surface and never opens a
+display.
 """
 
 from __future__ import annotations
@@ -28,8 +29,22 @@ DISK = (40, 90, 200)
 RIM = (15, 35, 110)
 SPOKE = (250, 250, 250)
 TEXT = (20, 20, 20)
+LEGEND_BACKGROUND = (250, 251, 253)
 WALL_DISTANCE = 3.0
 """The wall of the vertical projection stands this many radii beyond the disk, along +y (away from the camera)."""
+LEGEND = {
+    "shadow": "shadow on the ground",
+    "wall": "projection on a wall (along +y)",
+    "track": "track of the centre",
+    "target": "target circle",
+}
+"""What the legend explains, by what it draws beside each line (the target circle's line goes last)."""
+CAMERA_LAG = 0.5
+"""s. The camera's look-at point and distance approach their targets with this time constant."""
+CIRCLE_VIEW = np.array([0.0, -0.9, 0.55]) / math.hypot(0.9, 0.55)
+"""Direction from the look-at point to the eye with a target circle: looking along +y, the wall behind the disk."""
+DISK_VIEW = np.array([-0.55, -0.7, 0.45]) / math.hypot(0.55, 0.7, 0.45)
+"""The same without a target circle: from the side and behind, along +x and +y."""
 
 
 def rim_points(state, radius: float, count: int = 48) -> np.ndarray:
@@ -63,6 +78,18 @@ class Camera:
         return np.stack([u, v], axis=1)
 
 
+def framing_distance(focus: np.ndarray, direction: np.ndarray, points: np.ndarray) -> float:
+    """The smallest distance (m) from ``focus`` along ``direction`` at which a camera looking at ``focus`` sees all
+    ``points`` (n, 3) inside the picture, below the text line (by bisection: farther, the points move inwards)."""
+    near, far = 0.5, 1000.0
+    for _ in range(30):
+        middle = (near + far) / 2
+        u, v = Camera(focus + middle * direction, focus).project(points).T
+        inside = (u.min() >= 10) and (u.max() <= WIDTH - 10) and (v.min() >= 34) and (v.max() <= HEIGHT - 10)
+        near, far = (near, middle) if inside else (middle, far)
+    return far
+
+
 class DiskRenderer:
     """Draws frames; ``"human"`` shows them in a window at ``fps``, ``"rgb_array"`` returns them."""
 
@@ -84,15 +111,48 @@ class DiskRenderer:
             self.window = pygame.display.set_mode((WIDTH, HEIGHT))
             self.clock = pygame.time.Clock()
         self.surface = pygame.Surface((WIDTH, HEIGHT))
+        self.legend_font = pygame.font.Font(None, 16)
+        self._focus: np.ndarray | None = None
+        self._distance = 0.0
+        self._time = 0.0
 
-    def _camera(self, state, params: DiskParams, goal: dict) -> Camera:
-        if "radius" in goal:
-            centre = np.array([goal["cx"], goal["cy"], 0.0])
-            distance = 2.2 * goal["radius"] + 4 * params.radius
-            return Camera(centre + distance * np.array([0.0, -0.9, 0.55]), centre)
-        target = np.array([state[0], state[1], params.radius * 0.6])
-        distance = 7 * params.radius
-        return Camera(target + distance * np.array([-0.55, -0.7, 0.45]), target)
+    def _view(self, state, params: DiskParams, goal: dict) -> tuple[np.ndarray, float]:
+        """Where the camera should look (m, world) and from how far (m): framing the target circle and the disk
+        while the disk is within the circle's radius of it, else the disk alone."""
+        r = params.radius
+        disk = np.array([state[0], state[1], 0.6 * r])
+        if "radius" not in goal:
+            return disk, 7 * r
+        radius, centre = goal["radius"], np.array([goal["cx"], goal["cy"]])
+        if np.linalg.norm(disk[:2] - centre) > 2 * radius:
+            return disk, 12 * r
+        angles = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
+        circle = np.column_stack([centre + radius * np.column_stack([np.cos(angles), np.sin(angles)]), 0 * angles])
+        corners = np.array([[dx, dy, dz] for dx in (-r, r) for dy in (-r, r) for dz in (0.0, 2 * r)])
+        points = np.vstack([circle, disk * [1, 1, 0] + corners])
+        low, high = points.min(axis=0), points.max(axis=0)
+        focus = np.array([(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, 0.0])
+        return focus, framing_distance(focus, CIRCLE_VIEW, points)
+
+    def _camera(self, time: float, state, params: DiskParams, goal: dict) -> Camera:
+        """The camera of a frame at ``time`` (s): its look-at point and distance follow :meth:`_view` with the lag
+        :data:`CAMERA_LAG`, and never so far behind that the disk leaves the picture; a new episode (time not
+        after the previous frame's) starts on the view."""
+        target, distance = self._view(state, params, goal)
+        if self._focus is None or time <= self._time:
+            self._focus, self._distance = target, distance
+        else:
+            weight = 1.0 - math.exp(-(time - self._time) / CAMERA_LAG)
+            self._focus = self._focus + weight * (target - self._focus)
+            self._distance += weight * (distance - self._distance)
+            # The look-at point stays within a third of the picture's half-height of where it should be.
+            lag = self._focus - target
+            limit = self._distance * math.tan(FIELD_OF_VIEW / 2) / 3
+            if np.linalg.norm(lag) > limit:
+                self._focus = target + lag * (limit / np.linalg.norm(lag))
+        self._time = time
+        direction = CIRCLE_VIEW if "radius" in goal else DISK_VIEW
+        return Camera(self._focus + self._distance * direction, self._focus)
 
     def draw(self, time: float, state, params: DiskParams, goal: dict, task, track) -> np.ndarray | None:
         """Draws one frame of ``state`` (8 floats) at ``time`` (s) with the disk ``params``, the task's ``goal``
@@ -100,7 +160,7 @@ class DiskRenderer:
         pygame = self.pygame
         surface = self.surface
         surface.fill(BACKGROUND)
-        camera = self._camera(state, params, goal)
+        camera = self._camera(time, state, params, goal)
 
         self._draw_grid(camera)
         if "radius" in goal:
@@ -150,6 +210,7 @@ class DiskRenderer:
             f"   heading rate {state[7]:+5.2f} rad/s   task {task.name}"
         )
         surface.blit(self.font.render(text, True, TEXT), (8, 8))
+        self._draw_legend("radius" in goal)
 
         if self.render_mode == "human":
             pygame.event.pump()
@@ -168,6 +229,36 @@ class DiskRenderer:
                 segment = self._clip_in_front(camera, segment)
                 if segment is not None:
                     self.pygame.draw.line(self.surface, GRID, *camera.project(segment).tolist(), 1)
+
+    @staticmethod
+    def legend_entries(with_target: bool) -> list[str]:
+        """The legend's lines, with the target circle's if there is one."""
+        return list(LEGEND.values())[: len(LEGEND) if with_target else len(LEGEND) - 1]
+
+    def _draw_legend(self, with_target: bool) -> None:
+        """What the colours mean, in the corner the scene leaves emptiest: upper left when looking over a target
+        circle (its far side looks narrowest), lower right when looking at the disk from the side (the wall is
+        upper left)."""
+        pygame, surface = self.pygame, self.surface
+        entries = list(zip(LEGEND, self.legend_entries(with_target)))
+        line, swatch, pad = 14, 20, 4
+        labels = [self.legend_font.render(label, True, TEXT) for _, label in entries]
+        width = swatch + 6 + max(label.get_width() for label in labels) + 2 * pad
+        height = line * len(entries) + 2 * pad
+        left, top = (8, 30) if with_target else (WIDTH - width - 8, HEIGHT - height - 8)
+        pygame.draw.rect(surface, LEGEND_BACKGROUND, (left, top, width, height))
+        pygame.draw.rect(surface, GRID, (left, top, width, height), 1)
+        for row, ((kind, _), label) in enumerate(zip(entries, labels)):
+            x, y = left + pad, top + pad + row * line
+            middle = y + line // 2 - 1
+            if kind == "shadow":
+                pygame.draw.ellipse(surface, SHADOW, (x, middle - 4, swatch, 8))
+            elif kind == "wall":
+                pygame.draw.rect(surface, WALL, (x, y + 1, swatch, line - 3))
+                pygame.draw.ellipse(surface, SHADOW, (x + 6, y + 3, 10, line - 7))
+            else:
+                pygame.draw.line(surface, TRACK if kind == "track" else TARGET, (x, middle), (x + swatch, middle), 2)
+            surface.blit(label, (x + swatch + 6, y + (line - label.get_height()) // 2))
 
     @staticmethod
     def _clip_in_front(camera: Camera, segment: np.ndarray) -> np.ndarray | None:

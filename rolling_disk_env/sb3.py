@@ -85,9 +85,7 @@ class NativeVecEnv(VecEnv):
         return [None] * self.num_envs
 
 
-def make_vec_env(
-    env_id: str, n_envs: int = 1, seed: int | None = None, env_kwargs: dict | None = None
-) -> VecMonitor:
+def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None, env_kwargs: dict | None = None) -> VecMonitor:
     """SB3's ``make_vec_env`` for a RollingDisk id, on the native vector env: ``VecMonitor(NativeVecEnv(...))``."""
     env = gym.make_vec(
         env_id,

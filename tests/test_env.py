@@ -89,7 +89,8 @@ def test_step_types_are_the_ones_sb3_accepts():
     assert observation.dtype == np.float32 and observation in env.observation_space
     assert info["state"].dtype == np.float64 and info["state"].shape == (8,)
     assert type(info["is_success"]) is bool
-    assert {key for key in info if key.startswith("reward_")} == {f"reward_{t}" for t in env.unwrapped.task.reward_weights}
+    terms = env.unwrapped.task.reward_weights
+    assert {key for key in info if key.startswith("reward_")} == {f"reward_{term}" for term in terms}
     assert reward == sum(w * info[f"reward_{t}"] for t, w in env.unwrapped.task.reward_weights.items())
     assert not any(isinstance(value, dict) for value in info.values())  # flat, for batching wrappers
     assert env.unwrapped.dt == 0.02 and env.metadata["render_fps"] == 50

@@ -7,7 +7,6 @@ import pytest
 
 import rolling_disk_env as rd
 from rolling_disk_env.dynamics import steady_circle
-from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.tasks import UprightTask
 
 
@@ -62,9 +61,10 @@ def test_steady_circle_has_the_requested_radius_and_speed(radius, speed):
 
 def test_circle_observation_reads_the_sampled_offsets():
     offsets = {"radial_offset": (0.3, 0.3), "heading_error": (0.1, 0.1), "theta": (0.02, 0.02)}
-    config = EnvConfig.from_kwargs(task="circle", initial_ranges=offsets)
-    _, goal, x = config.sample_episode(np.random.default_rng(0), None)
-    observation = config.task.observe(x, goal, np)
+    env = rd.RollingDiskEnv(task="circle", initial_ranges=offsets)
+    observation, info = env.reset(seed=0)
+    goal = env.goal
+    assert np.hypot(*info["state"][:2]) == pytest.approx(goal["radius"] + 0.3)
     assert observation[0] == pytest.approx(0.3)
     assert observation[1] == pytest.approx(math.sin(0.1))
     assert observation[2] == pytest.approx(math.cos(0.1))

@@ -22,7 +22,7 @@ from rolling_disk_env.jit import kernel, parallel_kernel, prange
 from rolling_disk_env.tasks.base import REACHED, RUNNING
 import rolling_disk_env.tasks.circle as task
 
-TASK_SOURCE = "a621fd9e180d3eb0602fe636b91719881959471bf8d7174dff76bb2b16762bfa"
+TASK_SOURCE = "b5ce40b3b8d2adeb514624aa175a2b70f3f22ff8e9ab4282aecb1f0304d83014"
 """The sha256 of the task module these steps were generated from."""
 
 
@@ -280,7 +280,8 @@ def step_dopri5_disk(i, actions, states, disks, goals, steps, sizes, error_sums,
     goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3], goals[i, 4], goals[i, 5])
     tau_spin, tau_steer, effort = engine.torques(actions, i, actuators)
     state, sizes[i], ok = engine.advance_adaptive(
-        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2], config[RTOL], config[ATOL]
+        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2],
+        config[RTOL], config[ATOL],
     )
     code = engine.checked(state, ok)
     if code == RUNNING:

@@ -22,7 +22,7 @@ from rolling_disk_env.jit import kernel, parallel_kernel, prange
 from rolling_disk_env.tasks.base import REACHED, RUNNING
 import rolling_disk_env.tasks.upright as task
 
-TASK_SOURCE = "ae188bfa060a1bb3ede53030bb0b156e2f9714689fdd281c960807f672fcc9f5"
+TASK_SOURCE = "26a91f16075a7aef3151d036fab6282a29b6c7cbd4afb115e532412eea1bbb37"
 """The sha256 of the task module these steps were generated from."""
 
 
@@ -274,7 +274,8 @@ def step_dopri5_disk(i, actions, states, disks, goals, steps, sizes, error_sums,
     goal = (goals[i, 0],)
     tau_spin, tau_steer, effort = engine.torques(actions, i, actuators)
     state, sizes[i], ok = engine.advance_adaptive(
-        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2], config[RTOL], config[ATOL]
+        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2],
+        config[RTOL], config[ATOL],
     )
     code = engine.checked(state, ok)
     if code == RUNNING:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from typing import Any, ClassVar
 
@@ -164,7 +163,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         out = self._out
         if self._batch.step(actions, self._stepping, out) >= 0:
             raise ValueError(f"action must be finite numbers, got {action!r}")
-        terminated, truncated, _ = out.flags[0].tolist()
+        terminated = bool(out.flags[0, engine.TERMINATED])
         info = self._info(terminated, stepped=True)
         if self._track is not None:
             self._track.append(tuple(self._batch.states[0, :2]))

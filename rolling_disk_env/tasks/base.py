@@ -17,7 +17,8 @@ episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :at
   :data:`TRACK`).
 
 Each module names the positions it reads in these tuples with constants (numba folds them), as :data:`THETA` and the
-others do for the state.
+others do for the state. Use IEEE-exact operations (+, -, *, /, sqrt) and libm's functions (sin, cos, atan, ...)
+only: ``math.hypot``, for one, differs in the last bit between CPython and numba.
 """
 
 from __future__ import annotations
@@ -125,7 +126,7 @@ class Task(ABC):
                 )
         return ranges
 
-    def check_disk(self, params) -> None:
+    def check_disk(self, params) -> None:  # noqa: B027 (a hook: most tasks have a goal for every disk)
         """Raises ``ValueError`` if the task has no goal for a disk of these ``DiskParams`` (nothing to check here)."""
 
     @property

@@ -168,13 +168,14 @@ def start(drawn, disk, settings):
 @kernel
 def radial_error(x, goal):
     """|c - centre| - R (m)."""
-    return math.hypot(x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]) - goal[CIRCLE_RADIUS]
+    dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
+    return math.sqrt(dx * dx + dy * dy) - goal[CIRCLE_RADIUS]
 
 
 @kernel
 def observe(x, goal, settings):
     dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
-    distance = math.hypot(dx, dy)
+    distance = math.sqrt(dx * dx + dy * dy)
     sin_psi, cos_psi = math.sin(x[PSI]), math.cos(x[PSI])
     # delta = psi - angle - pi, with (cos angle, sin angle) = (dx, dy) / distance.
     scale = 1.0 / (distance + 1e-9)

@@ -68,11 +68,21 @@ class UprightTask(Task):
     def observation_bound(self, name: str) -> float:
         return math.pi / 2 if name == "theta" else super().observation_bound(name)
 
+    def target_spin_rate(self, disk_radius: float) -> float:
+        """dphi* (rad/s) for a disk of radius ``disk_radius`` (m)."""
+        return target_spin_rate(self.target_speed, disk_radius)
+
+
+@kernel
+def target_spin_rate(target_speed, disk_radius):
+    """dphi* = target_speed / r (rad/s): rolling without slipping at the target speed (m/s)."""
+    return target_speed / disk_radius
+
 
 @kernel
 def start(drawn, disk, settings):
     """At the origin, the angles and rates drawn; the goal is the spin rate of the target speed."""
-    goal = (settings[TARGET_SPEED] / disk[RADIUS],)
+    goal = (target_spin_rate(settings[TARGET_SPEED], disk[RADIUS]),)
     phi, psi, theta = drawn[DRAWN_PHI], drawn[DRAWN_PSI], drawn[DRAWN_THETA]
     x = (0.0, 0.0, phi, theta, psi, drawn[DRAWN_DPHI], drawn[DRAWN_DTHETA], drawn[DRAWN_DPSI])
     return goal, x

@@ -1,0 +1,165 @@
+"""The compiled engine: compiled kernels equal the interpreted generated code, numba's cache follows the package's
+sources and works where the package is read-only, PCG64 draws numpy's stream, stale task steps are refused."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils import seeding
+
+import rolling_disk_env as rd
+from rolling_disk_env import engine, jit, pcg64
+from rolling_disk_env.tasks import TASKS
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Runs in a fresh interpreter, compiled or (NUMBA_DISABLE_JIT=1) interpreted: the model on random states, each
+# integrator's step, PCG64 draws, and episodes of every task in the single and the vector env.
+PROGRAM = """
+import json, sys, warnings
+import gymnasium as gym, numpy as np
+import rolling_disk_env as rd
+from rolling_disk_env import engine, pcg64
+from rolling_disk_env.tasks import TASKS
+from gymnasium.utils import seeding
+
+warnings.filterwarnings("ignore", "overflow", RuntimeWarning)  # PCG64's intended wrap-around, interpreted
+rng = np.random.default_rng(7)
+states = rng.uniform(-2, 2, (20, 8))
+states[:, 3] = rng.uniform(-1.3, 1.3, 20)
+torques = rng.uniform(-5, 5, (20, 2))
+disks = np.tile([5.0, 9.81, 1.0], (20, 1))
+out = {"derivatives": rd.state_derivative(states, torques).tolist()}
+values = np.empty((20, 5))
+engine.diagnostics(states, torques, disks, values)
+out["diagnostics"] = values.tolist()
+for method in range(4):
+    x, status = states.copy(), np.zeros(20, dtype=np.int8)
+    engine.advance(method, x, torques, disks, 0.01, np.full(20, 0.01), 1e-9, 1e-9, status)
+    out[engine.METHODS[method]] = x.tolist()
+words = pcg64.state_words(seeding.np_random(3)[0])
+out["pcg64"] = [pcg64.random(words) for _ in range(10)]
+actions = rng.uniform(-1.2, 1.2, (40, 2)).astype(np.float32)
+for task in sorted(TASKS):
+    env = gym.make("RollingDisk-v0", task=task, max_episode_steps=15)
+    env.reset(seed=1)
+    trace = []
+    for action in actions:
+        observation, reward, terminated, truncated, info = env.step(action)
+        trace.append([*observation.tolist(), reward, *info["state"].tolist()])
+        if terminated or truncated:
+            env.reset()
+    vector = rd.RollingDiskVectorEnv(num_envs=3, max_episode_steps=15, task=task)
+    vector.reset(seed=2)
+    for action in actions:
+        observations, rewards, *_ = vector.step(np.tile(action, (3, 1)))
+        trace.append([*observations.ravel().tolist(), *rewards.tolist()])
+    out[task] = trace
+json.dump(out, sys.stdout)
+"""
+
+
+def _run(disable_jit: bool) -> dict:
+    environment = {**os.environ, "NUMBA_DISABLE_JIT": "1" if disable_jit else "0"}
+    result = subprocess.run(
+        [sys.executable, "-c", PROGRAM], capture_output=True, text=True, env=environment, cwd=ROOT, timeout=600
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    return json.loads(result.stdout)
+
+
+def test_compiled_kernels_give_the_interpreted_generated_code_to_the_last_bit():
+    compiled, interpreted = _run(False), _run(True)
+    assert set(compiled) == set(interpreted) >= {"derivatives", "rk4", "dopri5", "pcg64", *TASKS}
+    for key in compiled:  # JSON keeps every float's exact value
+        assert compiled[key] == interpreted[key], key
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2**40 + 7])
+def test_pcg64_draws_numpys_stream(seed):
+    generator = seeding.np_random(seed)[0]
+    words = pcg64.state_words(generator)
+    ours = [pcg64.random(words) for _ in range(500)]
+    np.testing.assert_array_equal(ours, generator.random(500))
+    np.testing.assert_array_equal(words, pcg64.state_words(generator))
+
+
+def test_the_package_stamp_changes_with_any_source_file(tmp_path):
+    copy = tmp_path / "rolling_disk_env"
+    shutil.copytree(jit.PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    code = "from rolling_disk_env import jit; print(jit.package_stamp())"
+
+    def stamp():
+        return subprocess.check_output([sys.executable, "-c", code], cwd=tmp_path, text=True).strip()
+
+    before = stamp()
+    tasks = copy / "tasks" / "upright.py"
+    tasks.write_text(tasks.read_text() + "\n")
+    assert stamp() != before
+
+
+def test_kernels_cache_in_the_user_directory_when_the_package_is_read_only(tmp_path):
+    package, home = tmp_path / "site" / "rolling_disk_env", tmp_path / "home"
+    shutil.copytree(jit.PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
+    folders = [package, *(path for path in package.rglob("*") if path.is_dir())]
+    if os.geteuid() == 0:
+        # Root writes through permission bits: block the cache folders themselves, as numba sees a read-only tree.
+        for folder in folders:
+            (folder / "__pycache__").write_text("")
+    else:
+        for folder in folders:
+            folder.chmod(0o555)
+    environment = {**os.environ, "HOME": str(home), "NUMBA_DEBUG_CACHE": "1", "PYTHONDONTWRITEBYTECODE": "1"}
+    environment.pop("NUMBA_CACHE_DIR", None)
+    code = "from rolling_disk_env import engine; print(engine.steady_circle(4.0, 2.0, 9.81, 1.0))"
+    try:
+        runs = [
+            subprocess.run(
+                [sys.executable, "-c", code], cwd=package.parent, env=environment, capture_output=True, text=True
+            )
+            for _ in range(2)
+        ]
+    finally:
+        for folder in folders:
+            folder.chmod(0o755)
+    assert all(run.returncode == 0 for run in runs), runs[0].stderr[-2000:]
+    assert "data saved" in runs[0].stdout and "data loaded" in runs[1].stdout
+    assert f"from '{home}" in runs[1].stdout  # numba's user-wide cache directory
+
+
+def test_steps_of_an_edited_task_are_refused(monkeypatch):
+    steps = engine.task_steps(TASKS["upright"]())
+    monkeypatch.setattr(steps, "TASK_SOURCE", "0" * 64)
+    with pytest.raises(RuntimeError, match="codegen"):
+        rd.RollingDiskEnv(task="upright")
+
+
+def test_importing_the_envs_compiles_nothing_until_a_config_is_used():
+    code = (
+        "import rolling_disk_env, gymnasium as gym; env = gym.make('RollingDisk-v0'); "
+        "from rolling_disk_env._generated import upright, circle; "
+        "print(len(upright.step_rk4.signatures), len(upright.step_euler.signatures), len(circle.step_rk4.signatures))"
+    )
+    env_step = "env.reset(seed=0); env.step(env.action_space.sample()); "
+    code = code.replace("from rolling", env_step + "from rolling")
+    assert subprocess.check_output([sys.executable, "-c", code], cwd=ROOT, text=True).split() == ["1", "0", "0"]
+
+
+def test_the_parallel_loop_runs_at_large_batches_only():
+    small = rd.RollingDiskVectorEnv(num_envs=engine.PARALLEL_FROM - 1)
+    large = rd.RollingDiskVectorEnv(num_envs=engine.PARALLEL_FROM)
+    assert not small._batch.parallel
+    assert large._batch.parallel == (jit.numba.get_num_threads() > 1)
+    large.reset(seed=0)
+    observations, *_ = large.step(np.zeros((engine.PARALLEL_FROM, 2), dtype=np.float32))
+    assert np.all(np.isfinite(observations))
+
+
+def test_gym_make_env_is_the_engines_env():
+    assert isinstance(gym.make(rd.ENV_ID).unwrapped, rd.RollingDiskEnv)
