@@ -51,14 +51,15 @@ _TORQUES = (d.tau_spin, d.tau_steer)
 _CONSTANTS = (d.m, d.g, d.r)
 _LEAN = (d.theta, d.dphi, d.dtheta, d.dpsi)
 _MODEL_NAMES = {"state": "full", "lean": "lean"}
-_SIN_THETA, _COS_THETA = sp.symbols("sin_theta cos_theta")
-"""Computed once at the top of each evaluation."""
+_SIN_THETA, _COS_THETA, _SIN_PSI, _COS_PSI = sp.symbols("sin_theta cos_theta sin_psi cos_psi")
+_ANGLES = {d.theta: (_SIN_THETA, _COS_THETA), d.psi: (_SIN_PSI, _COS_PSI)}
+"""The sine and cosine of theta and psi, computed once per evaluation."""
 
 
 def _in_sin_cos(expr: sp.Expr) -> sp.Expr:
     """Rewrites ``expr`` with sin and cos of the bare angles only (no tan, no multiple or summed angles)."""
     expr = sp.expand_trig(expr.replace(sp.tan, lambda angle: sp.sin(angle) / sp.cos(angle)))
-    return expr.subs({sp.sin(d.theta): _SIN_THETA, sp.cos(d.theta): _COS_THETA})
+    return expr.subs({f(angle): symbol for angle, pair in _ANGLES.items() for f, symbol in zip((sp.sin, sp.cos), pair)})
 
 
 @dataclass(frozen=True)
@@ -132,12 +133,15 @@ def _reduce(outputs: list[sp.Expr]) -> tuple[list[tuple[sp.Symbol, sp.Expr]], li
     return sp.cse([_in_sin_cos(expr) for expr in outputs], optimizations="basic")
 
 
-def _trig_lines(used: set, theta: str) -> list[str]:
+def _trig_lines(used: set, names: dict | None = None) -> list[str]:
+    """``sin_theta = sin(theta)`` and the others, for the sines and cosines that are ``used``; ``names`` renames the
+    symbols (a Runge-Kutta stage's)."""
+    names = names or {}
     lines = []
-    if used & {_SIN_THETA, _COS_THETA}:
-        lines.append(f"{_SIN_THETA} = sin({theta})")
-    if _COS_THETA in used:
-        lines.append(f"{_COS_THETA} = cos({theta})")
+    for angle, pair in _ANGLES.items():
+        for function, symbol in zip(("sin", "cos"), pair):
+            if symbol in used:
+                lines.append(f"{names.get(symbol, symbol)} = {function}({names.get(angle, angle)})")
     return lines
 
 
@@ -148,7 +152,7 @@ def _function_source(name: str, equations: Equations) -> str:
     argument = "x" if len(equations.state) == 8 else "y"
     body = [
         f"{', '.join(map(str, equations.state))} = {argument}",
-        *_trig_lines(used, "theta"),
+        *_trig_lines(used),
         *(f"{symbol} = {_PRINTER.doprint(expr)}" for symbol, expr in replacements),
         f"return ({', '.join(_PRINTER.doprint(expr) for expr in reduced)},)",
     ]
@@ -289,16 +293,15 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
             for c in state:
                 a, _ = tableau.rows(c in velocities)
                 offset = _weighted(a[stage], [slopes[j].get(c, "0") for j in range(stage)])
-                if c in read or (c == d.theta and read & {_SIN_THETA, _COS_THETA}):
+                if c in read or (c in _ANGLES and read & set(_ANGLES[c])):
                     if offset:
                         names[c] = sp.Symbol(f"{c}_{stage + 1}")
                         body.append(f"{names[c]} = {c} + dt*({offset})")
         else:
             body.append("# stage 1: at x")
-        names |= {t: sp.Symbol(f"{t}_{stage + 1}") for t in (_SIN_THETA, _COS_THETA)}
+        names |= {t: sp.Symbol(f"{t}_{stage + 1}") for pair in _ANGLES.values() for t in pair}
         names |= {symbol: sp.Symbol(f"{symbol}_{stage + 1}") for symbol, _ in required}
-        body += [f"{names[_SIN_THETA]} = sin({names.get(d.theta, d.theta)})"] if read & {_SIN_THETA, _COS_THETA} else []
-        body += [f"{names[_COS_THETA]} = cos({names.get(d.theta, d.theta)})"] if _COS_THETA in read else []
+        body += _trig_lines(read, names)
         body += [f"{names[symbol]} = {_PRINTER.doprint(expr.xreplace(names))}" for symbol, expr in required]
         current = {}
         for c, expr in outputs.items():
@@ -541,20 +544,30 @@ def _fill(template: str, fields: dict[str, str]) -> str:
     return template
 
 
-def generated_files() -> dict[str, str]:
-    """Every file of ``_generated``: name -> source."""
+def generated_files(write: bool = False) -> dict[str, str]:
+    """Every file of ``_generated``: name -> source. With ``write``, each is written as soon as it is made: the task
+    steps import the tasks, which import the model's kernels."""
+    files = {}
+
+    def add(filename: str, source: str) -> None:
+        files[filename] = source
+        if write:
+            path = GENERATED_DIR / filename
+            path.write_text(source)
+            print(f"wrote {path}")
+
+    add("kernels.py", generate_kernels())
     from rolling_disk_env.tasks import TASKS
 
-    return {"kernels.py": generate_kernels(), **{f"{name}.py": generate_steps(task) for name, task in TASKS.items()}}
+    for name, task in TASKS.items():
+        add(f"{name}.py", generate_steps(task))
+    return files
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.parse_args()
-    for filename, source in generated_files().items():
-        path = GENERATED_DIR / filename
-        path.write_text(source)
-        print(f"wrote {path}")
+    generated_files(write=True)
 
 
 if __name__ == "__main__":

@@ -46,7 +46,8 @@ PARALLEL_FROM = 1024
 """Batches of this many disks or more run on numba's threads (measured: ``benchmarks/bench_env.py``)."""
 
 OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT = range(2, 6)
-"""Termination codes of a disk after a step, beside the tasks' RUNNING (0), FALLEN (1) and REACHED (6)."""
+"""Termination codes of a disk after a step, beside the tasks' RUNNING (0), FALLEN (1) and REACHED (6)
+(:mod:`rolling_disk_env.tasks.base`)."""
 TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "substep_limit", "reached")
 """``info["termination"]`` of each code: the task's fall (or goal), the integrator leaving the model's domain, the
 contact needing more friction than ``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""

@@ -13,6 +13,7 @@ import numpy as np
 
 from rolling_disk_env import engine
 from rolling_disk_env.envs.config import EnvConfig
+from rolling_disk_env.tasks.base import TRACK
 
 
 @dataclass
@@ -69,7 +70,7 @@ class DiskBatch:
         self.steps = np.zeros(num_envs, dtype=np.int64)
         self.sizes = np.zeros(num_envs)
         # Tracking errors, summed, for the success rule TRACK; grown as episodes get longer.
-        tracked = task.success == engine.TRACK
+        tracked = task.success == TRACK
         self.error_sums = np.zeros((num_envs, (max_episode_steps or 1024) + 1 if tracked else 1))
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, 8), np.nan)
