@@ -53,7 +53,8 @@ _LEAN = (d.theta, d.dphi, d.dtheta, d.dpsi)
 _MODEL_NAMES = {"state": "full", "lean": "lean"}
 _SIN_THETA, _COS_THETA, _SIN_PSI, _COS_PSI = sp.symbols("sin_theta cos_theta sin_psi cos_psi")
 _ANGLES = {d.theta: (_SIN_THETA, _COS_THETA), d.psi: (_SIN_PSI, _COS_PSI)}
-"""The sine and cosine of theta and psi, computed once per evaluation."""
+"""The sine and cosine of theta and psi, computed together once per evaluation (:func:`rolling_disk_env.trig.sincos`,
+which vectorizes)."""
 
 
 def _in_sin_cos(expr: sp.Expr) -> sp.Expr:
@@ -134,14 +135,14 @@ def _reduce(outputs: list[sp.Expr]) -> tuple[list[tuple[sp.Symbol, sp.Expr]], li
 
 
 def _trig_lines(used: set, names: dict | None = None) -> list[str]:
-    """``sin_theta = sin(theta)`` and the others, for the sines and cosines that are ``used``; ``names`` renames the
-    symbols (a Runge-Kutta stage's)."""
+    """``sin_theta, cos_theta = sincos(theta)`` (and psi's) for the angles whose sine or cosine is ``used``;
+    ``names`` renames the symbols (a Runge-Kutta stage's)."""
     names = names or {}
     lines = []
     for angle, pair in _ANGLES.items():
-        for function, symbol in zip(("sin", "cos"), pair):
-            if symbol in used:
-                lines.append(f"{names.get(symbol, symbol)} = {function}({names.get(angle, angle)})")
+        if used & set(pair):
+            sine, cosine = (names.get(symbol, symbol) for symbol in pair)
+            lines.append(f"{sine}, {cosine} = sincos({names.get(angle, angle)})")
     return lines
 
 
@@ -156,7 +157,7 @@ def _function_source(name: str, equations: Equations) -> str:
         *(f"{symbol} = {_PRINTER.doprint(expr)}" for symbol, expr in replacements),
         f"return ({', '.join(_PRINTER.doprint(expr) for expr in reduced)},)",
     ]
-    lines = ["@kernel", _signature(name, argument), f'    """{equations.doc}"""', *(f"    {line}" for line in body)]
+    lines = ["@inline_kernel", _signature(name, argument), f'    """{equations.doc}"""', *(f"    {line}" for line in body)]
     return "\n".join(lines) + "\n"
 
 
@@ -329,7 +330,7 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
         body.append(f"return ({new_state})")
     doc = f"One step of dt seconds of {tableau.doc} on the {_MODEL_NAMES[model]} model; returns {returns}."
     signature = _signature(name, argument, ("dt",), tolerances)
-    lines = ["@kernel", signature, f'    """{doc}"""', *(f"    {line}" for line in body)]
+    lines = ["@inline_kernel", signature, f'    """{doc}"""', *(f"    {line}" for line in body)]
     return "\n".join(lines) + "\n"
 
 
@@ -341,146 +342,143 @@ def generate_kernels() -> str:
         for tableau in TABLEAUS:
             functions.append(_step_source(model, generated[f"{model}_derivative"], tableau))
     header = _HEADER.format(title="The rolling-disk model for one disk.", source="``rolling_disk_env/derivation.py``")
-    imports = "from math import cos, sin, sqrt\n\nfrom rolling_disk_env.jit import kernel\n"
+    imports = "from math import sqrt\n\nfrom rolling_disk_env.jit import inline_kernel\nfrom rolling_disk_env.trig import sincos\n"
     return header + "\n" + imports + "\n\n" + "\n\n".join(functions)
 
 
 STEP_TEMPLATE = """
-@kernel
-def step_{method}_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings,
-    weights, bounds, observations, info, flags, status):
-    \"\"\"One control period of disk i with {method}: integrate under the action's torques, check the domain and
-    the contact, then the task's reward terms, termination, success and observation.\"\"\"
-    x = {state}
-    disk = (disks[i, 0], disks[i, 1], disks[i, 2])
-    goal = {goal}
-    tau_spin, tau_steer, effort = engine.torques(actions, i, actuators)
-{advance}
-    code = engine.checked(state, ok)
-    if code == RUNNING:
-        x = state
-        for j in range(8):
-            states[i, j] = x[j]
-    steps[i] += 1
-    normal, required = engine.report(info, i, x, tau_spin, tau_steer, disk)
-    if code == RUNNING:
-        code = engine.contact_status(normal, required, config[FRICTION])
-    if code == RUNNING:
-        code = task.termination(x, goal, settings)
-    engine.reward(info, i, task.reward_terms(x, effort, goal, settings), weights)
-    status[i] = code
-    flags[i, TERMINATED] = code != RUNNING
-    flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
-    flags[i, SUCCESS] = {success}
-    engine.observe(observations, i, task.observe(x, goal, settings), bounds)
-
-
-@kernel
-def step_{method}(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings, weights,
+@inline_kernel
+def step_{method}_block(start, stop, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
     bounds, observations, info, flags, status):
-    \"\"\":func:`step_{method}_disk` for each disk not in ``skip``, serially; returns the first disk with a
-    non-finite action (then nothing is stepped), or -1.\"\"\"
+    \"\"\"One control period of disks start..stop-1 with {method}: the action's torques, the integration and the
+    contact forces (loops over the disks, vectorized), then disk by disk the task's termination, reward terms,
+    success and observation.\"\"\"
+    engine.action_torques(actions, actuators, lanes, start, stop)
+    engine.remember(lanes, start, stop)
+{advance}
+    engine.keep_in_domain(lanes, start, stop)
+    engine.contact_lanes(lanes, start, stop)
+    for i in range(start, stop):
+        x = {state}
+        goal = {goal}
+        steps[i] += 1
+        engine.report(info, i, lanes)
+        code = int(lanes[CODE, i])
+        if code == RUNNING:
+            code = engine.contact_status(lanes[CONTACT + 3, i], lanes[CONTACT + 4, i], config[FRICTION])
+        if code == RUNNING:
+            code = task.termination(x, goal, settings)
+        engine.reward(info, i, task.reward_terms(x, lanes[EFFORT, i], goal, settings), weights)
+        status[i] = code
+        flags[i, TERMINATED] = code != RUNNING
+        flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
+        flags[i, SUCCESS] = {success}
+        engine.observe(observations, i, task.observe(x, goal, settings), bounds)
+
+
+@kernel
+def step_{method}(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    \"\"\"Steps every disk (see :func:`step_{method}_block`), serially; returns the first disk with a non-finite
+    action (then nothing is stepped), or -1.\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = {settings}
-        for i in range(states.shape[0]):
-            if not skip[i]:
-                step_{method}_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        step_{method}_block(0, lanes.shape[1], actions, lanes, goals, steps, error_sums, config, actuators,
+            {settings}, weights, bounds, observations, info, flags, status)
     return bad
 
 
 @parallel_kernel
-def step_{method}_parallel(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-    settings, weights, bounds, observations, info, flags, status):
-    \"\"\":func:`step_{method}` on numba's threads.\"\"\"
+def step_{method}_parallel(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    \"\"\":func:`step_{method}` on numba's threads, in blocks of ``engine.BLOCK`` disks.\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = {settings}
-        for i in prange(states.shape[0]):
-            if not skip[i]:
-                step_{method}_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        disks = lanes.shape[1]
+        for block in prange((disks + BLOCK - 1) // BLOCK):
+            step_{method}_block(block * BLOCK, min(disks, (block + 1) * BLOCK), actions, lanes, goals, steps,
+                error_sums, config, actuators, {settings}, weights, bounds, observations, info, flags, status)
     return bad
 """
-"""The fused step of one task with one integrator, for one disk and for a batch (the fields in braces are filled in
-per task and integrator). Disks are read into tuples, which the task's kernels take and return."""
+"""The fused step of one task with one integrator, for a batch of disks (the fields in braces are filled in per task
+and integrator). The task's kernels take and return tuples of floats."""
 
 RESET_TEMPLATE = """
 @kernel
-def reset_disk(i, uniforms, given, states, disks, goals, steps, sizes, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags, status):
-    \"\"\"Starts an episode in disk i: its disk constants (those randomized, in the order m, g, r), then the task's
-    goal and initial state from the values drawn in its ranges, all from the episode's ``uniforms`` in [0, 1);
-    ``given`` (8 floats; NaN: none) replaces the initial state.\"\"\"
-    drawn = 0
-    for k in range(3):
-        low, high = disk_ranges[k, 0], disk_ranges[k, 1]
-        disks[i, k] = low
-        if disk_ranges[k, 2]:
-            disks[i, k] = low + (high - low) * uniforms[drawn]
-            drawn += 1
+def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds,
+    observations, info, flags, status):
+    \"\"\"Starts an episode in each disk of ``mask``: its disk constants (those randomized, in the order m, g, r),
+    then the task's goal and initial state from the values drawn in its ranges, all from the episode's uniforms in
+    [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of ``numpy.random.Generator.random``), or taken as
+    given in ``uniforms`` when ``rngs`` has no rows; a row of ``given`` (8 floats; NaN: none) replaces the initial
+    state.\"\"\"
+    options = {settings}
     values = np.empty(ranges.shape[0])
-    for j in range(ranges.shape[0]):
-        values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[drawn + j]
-    disk = (disks[i, 0], disks[i, 1], disks[i, 2])
-    goal, x = task.start(values, disk, {settings})
-    if not np.isnan(given[0]):
-        x = {given}
-    for j in range(len(goal)):
-        goals[i, j] = goal[j]
-    for j in range(8):
-        states[i, j] = x[j]
-    steps[i] = 0
-    sizes[i] = config[PERIOD]
-    error_sums[i, 0] = 0.0
-    engine.report(info, i, x, 0.0, 0.0, disk)
-    info[i, REWARD:] = 0.0
-    status[i] = RUNNING
-    flags[i, TERMINATED] = False
-    flags[i, TRUNCATED] = False
-    flags[i, SUCCESS] = {success_at_start}
-    engine.observe(observations, i, task.observe(x, goal, {settings}), bounds)
-
-
-@kernel
-def reset(mask, rngs, uniforms, given, states, disks, goals, steps, sizes, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags, status):
-    \"\"\":func:`reset_disk` for each disk in ``mask``, its uniforms drawn from its PCG64 state ``rngs[i]`` (the
-    stream of ``numpy.random.Generator.random``); or from ``uniforms`` as given, when ``rngs`` has no rows.\"\"\"
-    for i in range(states.shape[0]):
-        if mask[i]:
-            if rngs.shape[0]:
-                for j in range(uniforms.shape[1]):
-                    uniforms[i, j] = pcg64.random(rngs[i])
-            reset_disk(i, uniforms[i], given[i], states, disks, goals, steps, sizes, error_sums, config, disk_ranges,
-                ranges, settings, bounds, observations, info, flags, status)
+    for i in range(lanes.shape[1]):
+        if not mask[i]:
+            continue
+        if rngs.shape[0]:
+            for j in range(uniforms.shape[1]):
+                uniforms[i, j] = pcg64.random(rngs[i])
+        drawn = 0
+        for k in range(3):
+            low, high = disk_ranges[k, 0], disk_ranges[k, 1]
+            lanes[MASS + k, i] = low
+            if disk_ranges[k, 2]:
+                lanes[MASS + k, i] = low + (high - low) * uniforms[i, drawn]
+                drawn += 1
+        for j in range(ranges.shape[0]):
+            values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[i, drawn + j]
+        disk = (lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
+        goal, x = task.start(values, disk, options)
+        if not np.isnan(given[i, 0]):
+            x = {given}
+        for j in range(len(goal)):
+            goals[i, j] = goal[j]
+        for j in range(8):
+            lanes[STATE + j, i] = x[j]
+        lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
+        lanes[STEP_SIZE, i] = config[PERIOD]
+        contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
+        for j in range(5):
+            lanes[CONTACT + j, i] = contact[j]
+        steps[i] = 0
+        error_sums[i, 0] = 0.0
+        engine.report(info, i, lanes)
+        info[i, REWARD:] = 0.0
+        status[i] = RUNNING
+        flags[i, TERMINATED] = False
+        flags[i, TRUNCATED] = False
+        flags[i, SUCCESS] = {success_at_start}
+        engine.observe(observations, i, task.observe(x, goal, options), bounds)
 """
 """Starting episodes of one task."""
 
 _ADVANCE = {
-    "dopri5": (
-        "    state, sizes[i], ok = engine.advance_adaptive(\n"
-        "        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2],\n"
-        "        config[RTOL], config[ATOL],\n"
-        "    )"
-    ),
-    "fixed": (
-        "    ok = True\n"
-        "    state = x\n"
-        "    substeps = int(config[SUBSTEPS])\n"
-        "    for _ in range(substeps):\n"
-        "        state = kernels.state_{method}_step(\n"
-        "            state, config[PERIOD] / substeps, tau_spin, tau_steer, disk[0], disk[1], disk[2]\n"
-        "        )"
-    ),
+    "dopri5": """    for i in range(start, stop):
+        x = {state_lanes}
+        x, lanes[STEP_SIZE, i], ok = engine.advance_adaptive(
+            x, config[PERIOD], lanes[STEP_SIZE, i], lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i],
+            lanes[GRAVITY, i], lanes[RADIUS, i], config[RTOL], config[ATOL]
+        )
+{store}
+        lanes[CODE, i] = RUNNING if ok else SUBSTEP_LIMIT""",
+    "fixed": """    substeps = int(config[SUBSTEPS])
+    dt = config[PERIOD] / substeps
+    for _ in range(substeps):
+        for i in range(start, stop):
+            x = kernels.state_{method}_step(
+                {state_lanes}, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
+                lanes[RADIUS, i]
+            )
+{store}""",
 }
 _SUCCESS = {
     "survive": ("code == RUNNING", "True"),
     "track": (
         "code == RUNNING and engine.tracking_success(\n"
-        "        error_sums, i, steps[i], task.tracking_error(x, goal, settings), config[SUCCESS_BOUND]\n"
-        "    )",
+        "            error_sums, i, steps[i], task.tracking_error(x, goal, settings), config[SUCCESS_BOUND]\n"
+        "        )",
         "True",
     ),
     "reach": ("code == REACHED", "False"),
@@ -495,16 +493,21 @@ def generate_steps(task) -> str:
     module = inspect.getmodule(task)
     rule = {SURVIVE: "survive", TRACK: "track", REACH: "reach"}[task.success]
     success, success_at_start = _SUCCESS[rule]
+    state_lanes = _row_tuple("lanes", 8, column=True)
     fields = {
-        "{state}": _row_tuple("states", 8),
-        "{given}": _row_tuple("given", 8, row=False),
+        "{state}": state_lanes,
+        "{given}": _row_tuple("given", 8),
         "{goal}": _row_tuple("goals", len(task.goal_names)),
         "{settings}": _row_tuple("settings", len(task.setting_names), row=False),
         "{success_at_start}": success_at_start,
     }
     steps = []
     for tableau in TABLEAUS:
-        template = STEP_TEMPLATE.replace("{advance}", _ADVANCE["dopri5" if tableau.error else "fixed"])
+        advance = _ADVANCE["dopri5" if tableau.error else "fixed"]
+        indent = " " * (8 if tableau.error else 12)
+        store = "\n".join(f"{indent}lanes[{j}, i] = x[{j}]" for j in range(8))
+        advance = advance.replace("{store}", store).replace("{state_lanes}", state_lanes)
+        template = STEP_TEMPLATE.replace("{advance}", advance)
         steps.append(_fill(template, {**fields, "{success}": success, "{method}": tableau.name}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: one disk, or a batch, through a control period.",
@@ -517,10 +520,11 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ATOL, FRICTION, MAX_STEPS, PERIOD, REWARD, RTOL, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TERMINATED, TERMS,",
+            "    ATOL, BLOCK, CODE, CONTACT, EFFORT, FRICTION, GRAVITY, MASS, MAX_STEPS, PERIOD, RADIUS, REWARD, RTOL,",
+            "    STATE, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED,",
             "    TRUNCATED,",
             ")",
-            "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
+            "from rolling_disk_env.jit import inline_kernel, kernel, parallel_kernel, prange",
             "from rolling_disk_env.tasks.base import REACHED, RUNNING",
             f"import {module.__name__} as task",
             "",
@@ -531,10 +535,13 @@ def generate_steps(task) -> str:
     return header + "\n" + imports + "\n\n" + _fill(RESET_TEMPLATE, fields) + "".join(steps)
 
 
-def _row_tuple(array: str, size: int, row: bool = True) -> str:
-    """``(array[i, 0], array[i, 1], ...)`` (or ``array[0], ...``): a tuple of ``size`` floats, which numba keeps in
-    registers (``()`` for none)."""
-    items = [f"{array}[i, {j}]" if row else f"{array}[{j}]" for j in range(size)]
+def _row_tuple(array: str, size: int, row: bool = True, column: bool = False) -> str:
+    """``(array[i, 0], array[i, 1], ...)``, or ``(array[0, i], ...)`` (``column``), or ``(array[0], ...)`` (not
+    ``row``): a tuple of ``size`` floats, which numba keeps in registers."""
+    if column:
+        items = [f"{array}[{j}, i]" for j in range(size)]
+    else:
+        items = [f"{array}[i, {j}]" if row else f"{array}[{j}]" for j in range(size)]
     return f"({', '.join(items)}{',' if size == 1 else ''})"
 
 

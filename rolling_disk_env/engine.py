@@ -33,7 +33,7 @@ import numpy as np
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.dynamics import LEAN_LIMIT
 from rolling_disk_env.integrators import ENGINE_METHODS
-from rolling_disk_env.jit import kernel
+from rolling_disk_env.jit import inline_kernel, kernel
 from rolling_disk_env.tasks.base import RUNNING
 
 METHODS = ENGINE_METHODS
@@ -44,6 +44,8 @@ MAX_ADAPTIVE_SUBSTEPS = 10_000
 episode ends with ``"substep_limit"`` (``simulate`` raises) instead of looping on."""
 PARALLEL_FROM = 1024
 """Batches of this many disks or more run on numba's threads (measured: ``benchmarks/bench_env.py``)."""
+BLOCK = 256
+"""Disks a thread steps at a time in the parallel loop."""
 
 OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT = range(2, 6)
 """Termination codes of a disk after a step, beside the tasks' RUNNING (0), FALLEN (1) and REACHED (6)
@@ -51,6 +53,16 @@ OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT = range(2, 6)
 TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "substep_limit", "reached")
 """``info["termination"]`` of each code: the task's fall (or goal), the integrator leaving the model's domain, the
 contact needing more friction than ``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""
+
+STATE, PREVIOUS = 0, 8
+TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, CODE = range(16, 24)
+CONTACT = 24
+LANES = 29
+"""Rows of a batch's *lanes* array (rows of N floats, one column per disk), which the vectorized loops read and
+write in place: the state (8 rows from STATE), the state at the start of the control period (8 rows from PREVIOUS),
+the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step size (s), the integration's code
+(RUNNING, OUT_OF_DOMAIN or SUBSTEP_LIMIT) and the 5 :func:`contact` values from CONTACT. One array: the compiler
+vectorizes a loop over disks only when it can rule out that its stores overlap its loads."""
 
 ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD = range(8, 14)
 """Columns of an info block (floats, one row per disk) after the 8 state columns: energy (J), contact force (N),
@@ -67,33 +79,60 @@ NEXT_STEP, SAME_STEP, DISABLED = range(3)
 """Autoreset modes, as Gymnasium's ``AutoresetMode``."""
 
 
-@kernel
-def torques(actions, i, actuators):
-    """``(tau_spin, tau_steer, effort)`` of disk i: the torques (N m) of its normalized action, ``actions[i]``,
-    clipped to [-1, 1], and its effort, the mean squared clipped action. ``actuators`` has a row per action
-    component: (torque 0 (spin) or 1 (steer), the torque of action +1 in N m)."""
-    spin = steer = effort = 0.0
+@inline_kernel
+def action_torques(actions, actuators, lanes, start, stop):
+    """Writes the torques (N m) and the effort (the mean squared clipped action) of disks start..stop-1 into their
+    lanes, from their normalized actions clipped to [-1, 1]. ``actuators`` has a row per action component: (torque
+    0 (spin) or 1 (steer), the torque of action +1 in N m)."""
     count = actions.shape[1]
+    for i in range(start, stop):
+        lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = lanes[EFFORT, i] = 0.0
     for j in range(count):
-        value = min(max(float(actions[i, j]), -1.0), 1.0)
-        effort += value * value
-        if actuators[j, 0] == 0.0:
-            spin = actuators[j, 1] * value
-        else:
-            steer = actuators[j, 1] * value
-    return spin, steer, effort / count if count else 0.0
+        row, limit = TAU_SPIN + int(actuators[j, 0]), actuators[j, 1]
+        for i in range(start, stop):
+            value = min(max(float(actions[i, j]), -1.0), 1.0)
+            lanes[EFFORT, i] += value * value / count
+            lanes[row, i] = limit * value
 
 
-@kernel
-def in_domain(x) -> bool:
-    """Whether a state is finite and inside the model's domain ``|theta| < LEAN_LIMIT``."""
-    total = 0.0
-    for value in x:
-        total += value
-    return math.isfinite(total) and abs(x[3]) < LEAN_LIMIT
+@inline_kernel
+def remember(lanes, start, stop):
+    """Keeps the states of disks start..stop-1 (rows PREVIOUS) and marks their integration RUNNING."""
+    for i in range(start, stop):
+        for j in range(8):
+            lanes[PREVIOUS + j, i] = lanes[STATE + j, i]
+        lanes[CODE, i] = RUNNING
 
 
-@kernel
+@inline_kernel
+def keep_in_domain(lanes, start, stop):
+    """Where a disk's new state is not finite or has left the model's domain, restores its state from the start of
+    the period and marks it OUT_OF_DOMAIN."""
+    for i in range(start, stop):
+        total = 0.0
+        for j in range(8):
+            total += lanes[STATE + j, i]
+        inside = math.isfinite(total) and abs(lanes[STATE + 3, i]) < LEAN_LIMIT
+        for j in range(8):
+            lanes[STATE + j, i] = lanes[STATE + j, i] if inside else lanes[PREVIOUS + j, i]
+        lanes[CODE, i] = lanes[CODE, i] if inside else OUT_OF_DOMAIN
+
+
+@inline_kernel
+def contact_lanes(lanes, start, stop):
+    """Writes the :func:`contact` values of disks start..stop-1, at their states under their torques, into their
+    lanes (rows from CONTACT)."""
+    for i in range(start, stop):
+        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
+        values = contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
+        lanes[CONTACT, i] = values[0]
+        lanes[CONTACT + 1, i] = values[1]
+        lanes[CONTACT + 2, i] = values[2]
+        lanes[CONTACT + 3, i] = values[3]
+        lanes[CONTACT + 4, i] = values[4]
+
+
+@inline_kernel
 def contact(x, tau_spin, tau_steer, m, g, r):
     """``(energy, lambda1, lambda2, normal_force, required_friction)``: J, the horizontal and vertical ground
     reactions (N), and the friction coefficient the contact needs, ``|lambda| / N`` (inf when N <= 0)."""
@@ -102,26 +141,23 @@ def contact(x, tau_spin, tau_steer, m, g, r):
     return energy, lambda1, lambda2, normal, required
 
 
-@kernel
-def report(info, i, x, tau_spin, tau_steer, disk):
-    """Writes disk i's state ``x`` and its :func:`contact` values into its row of ``info``; returns the normal force
-    and the required friction."""
+@inline_kernel
+def report(info, i, lanes):
+    """Copies disk i's state and contact values from its lanes into its row of ``info``."""
     for j in range(8):
-        info[i, j] = x[j]
-    values = contact(x, tau_spin, tau_steer, disk[0], disk[1], disk[2])
+        info[i, j] = lanes[STATE + j, i]
     for j in range(5):
-        info[i, ENERGY + j] = values[j]
-    return values[3], values[4]
+        info[i, ENERGY + j] = lanes[CONTACT + j, i]
 
 
-@kernel
+@inline_kernel
 def observe(observations, i, values, high):
     """Writes disk i's observation ``values`` into ``observations``, clipped to [-high, high]."""
     for j in range(len(values)):
         observations[i, j] = min(max(values[j], -high[j]), high[j])
 
 
-@kernel
+@inline_kernel
 def reward(info, i, terms, weights):
     """Writes disk i's reward ``terms`` and their sum weighted by ``weights`` into its row of ``info``."""
     total = 0.0
@@ -129,15 +165,6 @@ def reward(info, i, terms, weights):
         info[i, TERMS + j] = terms[j]
         total += weights[j] * terms[j]
     info[i, REWARD] = total
-
-
-@kernel
-def checked(state, ok) -> int:
-    """SUBSTEP_LIMIT if the integrator gave up, OUT_OF_DOMAIN if the state is not finite or has left the model's
-    domain, else RUNNING."""
-    if not ok:
-        return SUBSTEP_LIMIT
-    return RUNNING if in_domain(state) else OUT_OF_DOMAIN
 
 
 @kernel
@@ -226,7 +253,7 @@ def steady_circle(radius, speed, g, r):
     return theta, speed / r + dpsi * math.sin(theta), dpsi
 
 
-@kernel
+@inline_kernel
 def tracking_success(error_sums, i, steps, error, bound) -> bool:
     """Records disk i's tracking ``error`` at step ``steps`` in its running sums ``error_sums[i]`` and says whether
     its mean over the last half of the episode is within ``bound``."""

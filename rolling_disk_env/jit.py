@@ -72,6 +72,9 @@ _use_package_stamps()
 
 kernel = numba.njit(cache=True, error_model="numpy")
 """Compiles a function of one disk (or a serial loop), cached."""
+inline_kernel = numba.njit(cache=True, error_model="numpy", inline="always")
+"""Compiles a function that numba inlines into each caller: a per-disk body called in a loop with many arrays, whose
+arguments a real call would pass one by one for every disk."""
 parallel_kernel = numba.njit(cache=True, error_model="numpy", parallel=True)
 """Compiles a loop over a batch whose ``prange`` iterations run on numba's threads (``NUMBA_NUM_THREADS``)."""
 prange = numba.prange

@@ -125,7 +125,7 @@ def test_torques_follow_the_actions_and_are_clipped():
     env.reset(seed=0, options={"state": [0, 0, 0, 0, 0, 0, 0, 0]})
     env.step(np.array([3.0], dtype=np.float32))
     # Pure steer from rest, upright: ddpsi = 4 tau / (m r^2) with tau clipped to 10 N m, so dpsi = 8 dt.
-    state = env._batch.states[0]
+    state = env._batch.states[:, 0]
     assert state[7] == pytest.approx(4 * 10.0 / 5.0 * 0.02)
     assert state[5] == pytest.approx(0.0)
 

@@ -179,7 +179,7 @@ def test_vector_bad_actions_raise_and_step_nothing(actions, message):
     _, infos = vector.reset(seed=0)
     with pytest.raises(ValueError, match=message):
         vector.step(actions)
-    np.testing.assert_array_equal(vector._batch.states, infos["state"])
+    np.testing.assert_array_equal(vector._batch.states.T, infos["state"])
 
 
 @pytest.mark.parametrize(

@@ -15,10 +15,11 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ATOL, FRICTION, MAX_STEPS, PERIOD, REWARD, RTOL, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TERMINATED, TERMS,
+    ATOL, BLOCK, CODE, CONTACT, EFFORT, FRICTION, GRAVITY, MASS, MAX_STEPS, PERIOD, RADIUS, REWARD, RTOL,
+    STATE, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED,
     TRUNCATED,
 )
-from rolling_disk_env.jit import kernel, parallel_kernel, prange
+from rolling_disk_env.jit import inline_kernel, kernel, parallel_kernel, prange
 from rolling_disk_env.tasks.base import REACHED, RUNNING
 import rolling_disk_env.tasks.goto as task
 
@@ -27,299 +28,320 @@ TASK_SOURCE = "844039f3e420b8b3707fd267cf0ee8a0397628ad4e0d3751ea3091bbf20dea97"
 
 
 @kernel
-def reset_disk(i, uniforms, given, states, disks, goals, steps, sizes, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags, status):
-    """Starts an episode in disk i: its disk constants (those randomized, in the order m, g, r), then the task's
-    goal and initial state from the values drawn in its ranges, all from the episode's ``uniforms`` in [0, 1);
-    ``given`` (8 floats; NaN: none) replaces the initial state."""
-    drawn = 0
-    for k in range(3):
-        low, high = disk_ranges[k, 0], disk_ranges[k, 1]
-        disks[i, k] = low
-        if disk_ranges[k, 2]:
-            disks[i, k] = low + (high - low) * uniforms[drawn]
-            drawn += 1
+def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds,
+    observations, info, flags, status):
+    """Starts an episode in each disk of ``mask``: its disk constants (those randomized, in the order m, g, r),
+    then the task's goal and initial state from the values drawn in its ranges, all from the episode's uniforms in
+    [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of ``numpy.random.Generator.random``), or taken as
+    given in ``uniforms`` when ``rngs`` has no rows; a row of ``given`` (8 floats; NaN: none) replaces the initial
+    state."""
+    options = (settings[0], settings[1], settings[2])
     values = np.empty(ranges.shape[0])
-    for j in range(ranges.shape[0]):
-        values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[drawn + j]
-    disk = (disks[i, 0], disks[i, 1], disks[i, 2])
-    goal, x = task.start(values, disk, (settings[0], settings[1], settings[2]))
-    if not np.isnan(given[0]):
-        x = (given[0], given[1], given[2], given[3], given[4], given[5], given[6], given[7])
-    for j in range(len(goal)):
-        goals[i, j] = goal[j]
-    for j in range(8):
-        states[i, j] = x[j]
-    steps[i] = 0
-    sizes[i] = config[PERIOD]
-    error_sums[i, 0] = 0.0
-    engine.report(info, i, x, 0.0, 0.0, disk)
-    info[i, REWARD:] = 0.0
-    status[i] = RUNNING
-    flags[i, TERMINATED] = False
-    flags[i, TRUNCATED] = False
-    flags[i, SUCCESS] = False
-    engine.observe(observations, i, task.observe(x, goal, (settings[0], settings[1], settings[2])), bounds)
+    for i in range(lanes.shape[1]):
+        if not mask[i]:
+            continue
+        if rngs.shape[0]:
+            for j in range(uniforms.shape[1]):
+                uniforms[i, j] = pcg64.random(rngs[i])
+        drawn = 0
+        for k in range(3):
+            low, high = disk_ranges[k, 0], disk_ranges[k, 1]
+            lanes[MASS + k, i] = low
+            if disk_ranges[k, 2]:
+                lanes[MASS + k, i] = low + (high - low) * uniforms[i, drawn]
+                drawn += 1
+        for j in range(ranges.shape[0]):
+            values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[i, drawn + j]
+        disk = (lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
+        goal, x = task.start(values, disk, options)
+        if not np.isnan(given[i, 0]):
+            x = (given[i, 0], given[i, 1], given[i, 2], given[i, 3], given[i, 4], given[i, 5], given[i, 6], given[i, 7])
+        for j in range(len(goal)):
+            goals[i, j] = goal[j]
+        for j in range(8):
+            lanes[STATE + j, i] = x[j]
+        lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
+        lanes[STEP_SIZE, i] = config[PERIOD]
+        contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
+        for j in range(5):
+            lanes[CONTACT + j, i] = contact[j]
+        steps[i] = 0
+        error_sums[i, 0] = 0.0
+        engine.report(info, i, lanes)
+        info[i, REWARD:] = 0.0
+        status[i] = RUNNING
+        flags[i, TERMINATED] = False
+        flags[i, TRUNCATED] = False
+        flags[i, SUCCESS] = False
+        engine.observe(observations, i, task.observe(x, goal, options), bounds)
 
-
-@kernel
-def reset(mask, rngs, uniforms, given, states, disks, goals, steps, sizes, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags, status):
-    """:func:`reset_disk` for each disk in ``mask``, its uniforms drawn from its PCG64 state ``rngs[i]`` (the
-    stream of ``numpy.random.Generator.random``); or from ``uniforms`` as given, when ``rngs`` has no rows."""
-    for i in range(states.shape[0]):
-        if mask[i]:
-            if rngs.shape[0]:
-                for j in range(uniforms.shape[1]):
-                    uniforms[i, j] = pcg64.random(rngs[i])
-            reset_disk(i, uniforms[i], given[i], states, disks, goals, steps, sizes, error_sums, config, disk_ranges,
-                ranges, settings, bounds, observations, info, flags, status)
-
-@kernel
-def step_euler_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings,
-    weights, bounds, observations, info, flags, status):
-    """One control period of disk i with euler: integrate under the action's torques, check the domain and
-    the contact, then the task's reward terms, termination, success and observation."""
-    x = (states[i, 0], states[i, 1], states[i, 2], states[i, 3], states[i, 4], states[i, 5], states[i, 6], states[i, 7])
-    disk = (disks[i, 0], disks[i, 1], disks[i, 2])
-    goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
-    tau_spin, tau_steer, effort = engine.torques(actions, i, actuators)
-    ok = True
-    state = x
+@inline_kernel
+def step_euler_block(start, stop, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+    bounds, observations, info, flags, status):
+    """One control period of disks start..stop-1 with euler: the action's torques, the integration and the
+    contact forces (loops over the disks, vectorized), then disk by disk the task's termination, reward terms,
+    success and observation."""
+    engine.action_torques(actions, actuators, lanes, start, stop)
+    engine.remember(lanes, start, stop)
     substeps = int(config[SUBSTEPS])
+    dt = config[PERIOD] / substeps
     for _ in range(substeps):
-        state = kernels.state_euler_step(
-            state, config[PERIOD] / substeps, tau_spin, tau_steer, disk[0], disk[1], disk[2]
-        )
-    code = engine.checked(state, ok)
-    if code == RUNNING:
-        x = state
-        for j in range(8):
-            states[i, j] = x[j]
-    steps[i] += 1
-    normal, required = engine.report(info, i, x, tau_spin, tau_steer, disk)
-    if code == RUNNING:
-        code = engine.contact_status(normal, required, config[FRICTION])
-    if code == RUNNING:
-        code = task.termination(x, goal, settings)
-    engine.reward(info, i, task.reward_terms(x, effort, goal, settings), weights)
-    status[i] = code
-    flags[i, TERMINATED] = code != RUNNING
-    flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
-    flags[i, SUCCESS] = code == REACHED
-    engine.observe(observations, i, task.observe(x, goal, settings), bounds)
+        for i in range(start, stop):
+            x = kernels.state_euler_step(
+                (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i]), dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
+                lanes[RADIUS, i]
+            )
+            lanes[0, i] = x[0]
+            lanes[1, i] = x[1]
+            lanes[2, i] = x[2]
+            lanes[3, i] = x[3]
+            lanes[4, i] = x[4]
+            lanes[5, i] = x[5]
+            lanes[6, i] = x[6]
+            lanes[7, i] = x[7]
+    engine.keep_in_domain(lanes, start, stop)
+    engine.contact_lanes(lanes, start, stop)
+    for i in range(start, stop):
+        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        steps[i] += 1
+        engine.report(info, i, lanes)
+        code = int(lanes[CODE, i])
+        if code == RUNNING:
+            code = engine.contact_status(lanes[CONTACT + 3, i], lanes[CONTACT + 4, i], config[FRICTION])
+        if code == RUNNING:
+            code = task.termination(x, goal, settings)
+        engine.reward(info, i, task.reward_terms(x, lanes[EFFORT, i], goal, settings), weights)
+        status[i] = code
+        flags[i, TERMINATED] = code != RUNNING
+        flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
+        flags[i, SUCCESS] = code == REACHED
+        engine.observe(observations, i, task.observe(x, goal, settings), bounds)
 
 
 @kernel
-def step_euler(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings, weights,
-    bounds, observations, info, flags, status):
-    """:func:`step_euler_disk` for each disk not in ``skip``, serially; returns the first disk with a
-    non-finite action (then nothing is stepped), or -1."""
+def step_euler(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """Steps every disk (see :func:`step_euler_block`), serially; returns the first disk with a non-finite
+    action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in range(states.shape[0]):
-            if not skip[i]:
-                step_euler_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        step_euler_block(0, lanes.shape[1], actions, lanes, goals, steps, error_sums, config, actuators,
+            (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
     return bad
 
 
 @parallel_kernel
-def step_euler_parallel(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-    settings, weights, bounds, observations, info, flags, status):
-    """:func:`step_euler` on numba's threads."""
+def step_euler_parallel(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """:func:`step_euler` on numba's threads, in blocks of ``engine.BLOCK`` disks."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in prange(states.shape[0]):
-            if not skip[i]:
-                step_euler_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        disks = lanes.shape[1]
+        for block in prange((disks + BLOCK - 1) // BLOCK):
+            step_euler_block(block * BLOCK, min(disks, (block + 1) * BLOCK), actions, lanes, goals, steps,
+                error_sums, config, actuators, (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
     return bad
 
-@kernel
-def step_symplectic_euler_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings,
-    weights, bounds, observations, info, flags, status):
-    """One control period of disk i with symplectic_euler: integrate under the action's torques, check the domain and
-    the contact, then the task's reward terms, termination, success and observation."""
-    x = (states[i, 0], states[i, 1], states[i, 2], states[i, 3], states[i, 4], states[i, 5], states[i, 6], states[i, 7])
-    disk = (disks[i, 0], disks[i, 1], disks[i, 2])
-    goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
-    tau_spin, tau_steer, effort = engine.torques(actions, i, actuators)
-    ok = True
-    state = x
+@inline_kernel
+def step_symplectic_euler_block(start, stop, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+    bounds, observations, info, flags, status):
+    """One control period of disks start..stop-1 with symplectic_euler: the action's torques, the integration and the
+    contact forces (loops over the disks, vectorized), then disk by disk the task's termination, reward terms,
+    success and observation."""
+    engine.action_torques(actions, actuators, lanes, start, stop)
+    engine.remember(lanes, start, stop)
     substeps = int(config[SUBSTEPS])
+    dt = config[PERIOD] / substeps
     for _ in range(substeps):
-        state = kernels.state_symplectic_euler_step(
-            state, config[PERIOD] / substeps, tau_spin, tau_steer, disk[0], disk[1], disk[2]
-        )
-    code = engine.checked(state, ok)
-    if code == RUNNING:
-        x = state
-        for j in range(8):
-            states[i, j] = x[j]
-    steps[i] += 1
-    normal, required = engine.report(info, i, x, tau_spin, tau_steer, disk)
-    if code == RUNNING:
-        code = engine.contact_status(normal, required, config[FRICTION])
-    if code == RUNNING:
-        code = task.termination(x, goal, settings)
-    engine.reward(info, i, task.reward_terms(x, effort, goal, settings), weights)
-    status[i] = code
-    flags[i, TERMINATED] = code != RUNNING
-    flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
-    flags[i, SUCCESS] = code == REACHED
-    engine.observe(observations, i, task.observe(x, goal, settings), bounds)
+        for i in range(start, stop):
+            x = kernels.state_symplectic_euler_step(
+                (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i]), dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
+                lanes[RADIUS, i]
+            )
+            lanes[0, i] = x[0]
+            lanes[1, i] = x[1]
+            lanes[2, i] = x[2]
+            lanes[3, i] = x[3]
+            lanes[4, i] = x[4]
+            lanes[5, i] = x[5]
+            lanes[6, i] = x[6]
+            lanes[7, i] = x[7]
+    engine.keep_in_domain(lanes, start, stop)
+    engine.contact_lanes(lanes, start, stop)
+    for i in range(start, stop):
+        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        steps[i] += 1
+        engine.report(info, i, lanes)
+        code = int(lanes[CODE, i])
+        if code == RUNNING:
+            code = engine.contact_status(lanes[CONTACT + 3, i], lanes[CONTACT + 4, i], config[FRICTION])
+        if code == RUNNING:
+            code = task.termination(x, goal, settings)
+        engine.reward(info, i, task.reward_terms(x, lanes[EFFORT, i], goal, settings), weights)
+        status[i] = code
+        flags[i, TERMINATED] = code != RUNNING
+        flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
+        flags[i, SUCCESS] = code == REACHED
+        engine.observe(observations, i, task.observe(x, goal, settings), bounds)
 
 
 @kernel
-def step_symplectic_euler(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings, weights,
-    bounds, observations, info, flags, status):
-    """:func:`step_symplectic_euler_disk` for each disk not in ``skip``, serially; returns the first disk with a
-    non-finite action (then nothing is stepped), or -1."""
+def step_symplectic_euler(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """Steps every disk (see :func:`step_symplectic_euler_block`), serially; returns the first disk with a non-finite
+    action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in range(states.shape[0]):
-            if not skip[i]:
-                step_symplectic_euler_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        step_symplectic_euler_block(0, lanes.shape[1], actions, lanes, goals, steps, error_sums, config, actuators,
+            (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
     return bad
 
 
 @parallel_kernel
-def step_symplectic_euler_parallel(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-    settings, weights, bounds, observations, info, flags, status):
-    """:func:`step_symplectic_euler` on numba's threads."""
+def step_symplectic_euler_parallel(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """:func:`step_symplectic_euler` on numba's threads, in blocks of ``engine.BLOCK`` disks."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in prange(states.shape[0]):
-            if not skip[i]:
-                step_symplectic_euler_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        disks = lanes.shape[1]
+        for block in prange((disks + BLOCK - 1) // BLOCK):
+            step_symplectic_euler_block(block * BLOCK, min(disks, (block + 1) * BLOCK), actions, lanes, goals, steps,
+                error_sums, config, actuators, (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
     return bad
 
-@kernel
-def step_rk4_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings,
-    weights, bounds, observations, info, flags, status):
-    """One control period of disk i with rk4: integrate under the action's torques, check the domain and
-    the contact, then the task's reward terms, termination, success and observation."""
-    x = (states[i, 0], states[i, 1], states[i, 2], states[i, 3], states[i, 4], states[i, 5], states[i, 6], states[i, 7])
-    disk = (disks[i, 0], disks[i, 1], disks[i, 2])
-    goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
-    tau_spin, tau_steer, effort = engine.torques(actions, i, actuators)
-    ok = True
-    state = x
+@inline_kernel
+def step_rk4_block(start, stop, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+    bounds, observations, info, flags, status):
+    """One control period of disks start..stop-1 with rk4: the action's torques, the integration and the
+    contact forces (loops over the disks, vectorized), then disk by disk the task's termination, reward terms,
+    success and observation."""
+    engine.action_torques(actions, actuators, lanes, start, stop)
+    engine.remember(lanes, start, stop)
     substeps = int(config[SUBSTEPS])
+    dt = config[PERIOD] / substeps
     for _ in range(substeps):
-        state = kernels.state_rk4_step(
-            state, config[PERIOD] / substeps, tau_spin, tau_steer, disk[0], disk[1], disk[2]
+        for i in range(start, stop):
+            x = kernels.state_rk4_step(
+                (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i]), dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
+                lanes[RADIUS, i]
+            )
+            lanes[0, i] = x[0]
+            lanes[1, i] = x[1]
+            lanes[2, i] = x[2]
+            lanes[3, i] = x[3]
+            lanes[4, i] = x[4]
+            lanes[5, i] = x[5]
+            lanes[6, i] = x[6]
+            lanes[7, i] = x[7]
+    engine.keep_in_domain(lanes, start, stop)
+    engine.contact_lanes(lanes, start, stop)
+    for i in range(start, stop):
+        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        steps[i] += 1
+        engine.report(info, i, lanes)
+        code = int(lanes[CODE, i])
+        if code == RUNNING:
+            code = engine.contact_status(lanes[CONTACT + 3, i], lanes[CONTACT + 4, i], config[FRICTION])
+        if code == RUNNING:
+            code = task.termination(x, goal, settings)
+        engine.reward(info, i, task.reward_terms(x, lanes[EFFORT, i], goal, settings), weights)
+        status[i] = code
+        flags[i, TERMINATED] = code != RUNNING
+        flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
+        flags[i, SUCCESS] = code == REACHED
+        engine.observe(observations, i, task.observe(x, goal, settings), bounds)
+
+
+@kernel
+def step_rk4(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """Steps every disk (see :func:`step_rk4_block`), serially; returns the first disk with a non-finite
+    action (then nothing is stepped), or -1."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        step_rk4_block(0, lanes.shape[1], actions, lanes, goals, steps, error_sums, config, actuators,
+            (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
+    return bad
+
+
+@parallel_kernel
+def step_rk4_parallel(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """:func:`step_rk4` on numba's threads, in blocks of ``engine.BLOCK`` disks."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        disks = lanes.shape[1]
+        for block in prange((disks + BLOCK - 1) // BLOCK):
+            step_rk4_block(block * BLOCK, min(disks, (block + 1) * BLOCK), actions, lanes, goals, steps,
+                error_sums, config, actuators, (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
+    return bad
+
+@inline_kernel
+def step_dopri5_block(start, stop, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+    bounds, observations, info, flags, status):
+    """One control period of disks start..stop-1 with dopri5: the action's torques, the integration and the
+    contact forces (loops over the disks, vectorized), then disk by disk the task's termination, reward terms,
+    success and observation."""
+    engine.action_torques(actions, actuators, lanes, start, stop)
+    engine.remember(lanes, start, stop)
+    for i in range(start, stop):
+        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
+        x, lanes[STEP_SIZE, i], ok = engine.advance_adaptive(
+            x, config[PERIOD], lanes[STEP_SIZE, i], lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i],
+            lanes[GRAVITY, i], lanes[RADIUS, i], config[RTOL], config[ATOL]
         )
-    code = engine.checked(state, ok)
-    if code == RUNNING:
-        x = state
-        for j in range(8):
-            states[i, j] = x[j]
-    steps[i] += 1
-    normal, required = engine.report(info, i, x, tau_spin, tau_steer, disk)
-    if code == RUNNING:
-        code = engine.contact_status(normal, required, config[FRICTION])
-    if code == RUNNING:
-        code = task.termination(x, goal, settings)
-    engine.reward(info, i, task.reward_terms(x, effort, goal, settings), weights)
-    status[i] = code
-    flags[i, TERMINATED] = code != RUNNING
-    flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
-    flags[i, SUCCESS] = code == REACHED
-    engine.observe(observations, i, task.observe(x, goal, settings), bounds)
+        lanes[0, i] = x[0]
+        lanes[1, i] = x[1]
+        lanes[2, i] = x[2]
+        lanes[3, i] = x[3]
+        lanes[4, i] = x[4]
+        lanes[5, i] = x[5]
+        lanes[6, i] = x[6]
+        lanes[7, i] = x[7]
+        lanes[CODE, i] = RUNNING if ok else SUBSTEP_LIMIT
+    engine.keep_in_domain(lanes, start, stop)
+    engine.contact_lanes(lanes, start, stop)
+    for i in range(start, stop):
+        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        steps[i] += 1
+        engine.report(info, i, lanes)
+        code = int(lanes[CODE, i])
+        if code == RUNNING:
+            code = engine.contact_status(lanes[CONTACT + 3, i], lanes[CONTACT + 4, i], config[FRICTION])
+        if code == RUNNING:
+            code = task.termination(x, goal, settings)
+        engine.reward(info, i, task.reward_terms(x, lanes[EFFORT, i], goal, settings), weights)
+        status[i] = code
+        flags[i, TERMINATED] = code != RUNNING
+        flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
+        flags[i, SUCCESS] = code == REACHED
+        engine.observe(observations, i, task.observe(x, goal, settings), bounds)
 
 
 @kernel
-def step_rk4(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings, weights,
-    bounds, observations, info, flags, status):
-    """:func:`step_rk4_disk` for each disk not in ``skip``, serially; returns the first disk with a
-    non-finite action (then nothing is stepped), or -1."""
+def step_dopri5(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """Steps every disk (see :func:`step_dopri5_block`), serially; returns the first disk with a non-finite
+    action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in range(states.shape[0]):
-            if not skip[i]:
-                step_rk4_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        step_dopri5_block(0, lanes.shape[1], actions, lanes, goals, steps, error_sums, config, actuators,
+            (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
     return bad
 
 
 @parallel_kernel
-def step_rk4_parallel(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-    settings, weights, bounds, observations, info, flags, status):
-    """:func:`step_rk4` on numba's threads."""
+def step_dopri5_parallel(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags, status):
+    """:func:`step_dopri5` on numba's threads, in blocks of ``engine.BLOCK`` disks."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in prange(states.shape[0]):
-            if not skip[i]:
-                step_rk4_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
-    return bad
-
-@kernel
-def step_dopri5_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings,
-    weights, bounds, observations, info, flags, status):
-    """One control period of disk i with dopri5: integrate under the action's torques, check the domain and
-    the contact, then the task's reward terms, termination, success and observation."""
-    x = (states[i, 0], states[i, 1], states[i, 2], states[i, 3], states[i, 4], states[i, 5], states[i, 6], states[i, 7])
-    disk = (disks[i, 0], disks[i, 1], disks[i, 2])
-    goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
-    tau_spin, tau_steer, effort = engine.torques(actions, i, actuators)
-    state, sizes[i], ok = engine.advance_adaptive(
-        x, config[PERIOD], sizes[i], tau_spin, tau_steer, disk[0], disk[1], disk[2],
-        config[RTOL], config[ATOL],
-    )
-    code = engine.checked(state, ok)
-    if code == RUNNING:
-        x = state
-        for j in range(8):
-            states[i, j] = x[j]
-    steps[i] += 1
-    normal, required = engine.report(info, i, x, tau_spin, tau_steer, disk)
-    if code == RUNNING:
-        code = engine.contact_status(normal, required, config[FRICTION])
-    if code == RUNNING:
-        code = task.termination(x, goal, settings)
-    engine.reward(info, i, task.reward_terms(x, effort, goal, settings), weights)
-    status[i] = code
-    flags[i, TERMINATED] = code != RUNNING
-    flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
-    flags[i, SUCCESS] = code == REACHED
-    engine.observe(observations, i, task.observe(x, goal, settings), bounds)
-
-
-@kernel
-def step_dopri5(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators, settings, weights,
-    bounds, observations, info, flags, status):
-    """:func:`step_dopri5_disk` for each disk not in ``skip``, serially; returns the first disk with a
-    non-finite action (then nothing is stepped), or -1."""
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in range(states.shape[0]):
-            if not skip[i]:
-                step_dopri5_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
-    return bad
-
-
-@parallel_kernel
-def step_dopri5_parallel(skip, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-    settings, weights, bounds, observations, info, flags, status):
-    """:func:`step_dopri5` on numba's threads."""
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        options = (settings[0], settings[1], settings[2])
-        for i in prange(states.shape[0]):
-            if not skip[i]:
-                step_dopri5_disk(i, actions, states, disks, goals, steps, sizes, error_sums, config, actuators,
-                    options, weights, bounds, observations, info, flags, status)
+        disks = lanes.shape[1]
+        for block in prange((disks + BLOCK - 1) // BLOCK):
+            step_dopri5_block(block * BLOCK, min(disks, (block + 1) * BLOCK), actions, lanes, goals, steps,
+                error_sums, config, actuators, (settings[0], settings[1], settings[2]), weights, bounds, observations, info, flags, status)
     return bad

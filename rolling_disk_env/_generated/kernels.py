@@ -10,34 +10,32 @@ Torques: tau_spin about the disk's axis R e1 and tau_steer about the vertical +z
 Constants: m (kg), g (m/s^2), r (m).
 """
 
-from math import cos, sin, sqrt
+from math import sqrt
 
-from rolling_disk_env.jit import kernel
+from rolling_disk_env.jit import inline_kernel
+from rolling_disk_env.trig import sincos
 
 
-@kernel
+@inline_kernel
 def state_derivative(x, tau_spin, tau_steer, m, g, r):
     """dx/dt of the full model at x (8 floats): the paper's state equations with the input torques."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
-    sin_theta = sin(theta)
-    cos_theta = cos(theta)
-    x0 = sin(psi)
-    x1 = cos(psi)
-    x2 = cos_theta*dtheta
-    x3 = dpsi*sin_theta
-    x4 = 1/(m*r*r)
-    x5 = 2*x4
-    x6 = cos_theta*dpsi
-    x7 = dphi/cos_theta
-    return (r*(dphi*x0 - x0*x3 + x1*x2), r*(-dphi*x1 + x0*x2 + x1*x3), dphi, dtheta, dpsi, (1/3)*dtheta*(6*sin_theta*x7 + 5*x6) + (10/3)*sin_theta*tau_steer*x4 + (1/3)*tau_spin*x5, cos_theta*dpsi*dpsi*sin_theta - 6/5*dphi*x6 + (4/5)*g*sin_theta/r, 2*dtheta*x7 + 2*tau_steer*x5,)
+    sin_theta, cos_theta = sincos(theta)
+    sin_psi, cos_psi = sincos(psi)
+    x0 = cos_theta*dtheta
+    x1 = dpsi*sin_theta
+    x2 = 1/(m*r*r)
+    x3 = 2*x2
+    x4 = cos_theta*dpsi
+    x5 = dphi/cos_theta
+    return (r*(cos_psi*x0 + dphi*sin_psi - sin_psi*x1), r*(-cos_psi*dphi + cos_psi*x1 + sin_psi*x0), dphi, dtheta, dpsi, (1/3)*dtheta*(6*sin_theta*x5 + 5*x4) + (10/3)*sin_theta*tau_steer*x2 + (1/3)*tau_spin*x3, cos_theta*dpsi*dpsi*sin_theta - 6/5*dphi*x4 + (4/5)*g*sin_theta/r, 2*dtheta*x5 + 2*tau_steer*x3,)
 
 
-@kernel
+@inline_kernel
 def lean_derivative(y, tau_spin, tau_steer, m, g, r):
     """dy/dt of the lean model at y (4 floats)."""
     theta, dphi, dtheta, dpsi = y
-    sin_theta = sin(theta)
-    cos_theta = cos(theta)
+    sin_theta, cos_theta = sincos(theta)
     x0 = 1/(m*r*r)
     x1 = 2*x0
     x2 = cos_theta*dpsi
@@ -45,12 +43,11 @@ def lean_derivative(y, tau_spin, tau_steer, m, g, r):
     return (dtheta, (1/3)*dtheta*(6*sin_theta*x3 + 5*x2) + (10/3)*sin_theta*tau_steer*x0 + (1/3)*tau_spin*x1, cos_theta*dpsi*dpsi*sin_theta - 6/5*dphi*x2 + (4/5)*g*sin_theta/r, 2*dtheta*x3 + 2*tau_steer*x1,)
 
 
-@kernel
+@inline_kernel
 def lean_jacobians(y, tau_spin, tau_steer, m, g, r):
     """The lean model's Jacobians at y, row-major: A = d(dy/dt)/dy (16 entries), then B = d(dy/dt)/du (8)."""
     theta, dphi, dtheta, dpsi = y
-    sin_theta = sin(theta)
-    cos_theta = cos(theta)
+    sin_theta, cos_theta = sincos(theta)
     x0 = cos_theta*cos_theta
     x1 = 2*dtheta/x0
     x2 = 1/(m*r*r)
@@ -62,13 +59,13 @@ def lean_jacobians(y, tau_spin, tau_steer, m, g, r):
     return (0, 0, 1, 0, cos_theta*tau_steer*x3 + dphi*x1 - 5/3*dpsi*dtheta*sin_theta, sin_theta*x5, dpsi*x6 + x4*x7, dtheta*x6, (1/5)*(4*cos_theta*g + dpsi*r*(5*dpsi*(2*x0 - 1) + 6*x7))/r, -6/5*cos_theta*dpsi, 0, 2*cos_theta*(-3/5*dphi + dpsi*sin_theta), x1*x7, x5, dphi*x4, 0, 0, 0, (2/3)*x2, sin_theta*x3, 0, 0, 0, 4*x2,)
 
 
-@kernel
+@inline_kernel
 def diagnostics(x, tau_spin, tau_steer, m, g, r):
     """(energy, lambda1, lambda2, normal_force): kinetic plus potential energy (J), the horizontal ground
     reaction on the disk along world x and y (N), and the vertical one, N = m (g + c3'') (N)."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
-    sin_theta = sin(theta)
-    cos_theta = cos(theta)
+    sin_theta, cos_theta = sincos(theta)
+    sin_psi, cos_psi = sincos(psi)
     x0 = cos_theta*g
     x1 = dpsi*dpsi
     x2 = 5*dtheta*dtheta
@@ -76,37 +73,32 @@ def diagnostics(x, tau_spin, tau_steer, m, g, r):
     x4 = sin_theta*sin_theta
     x5 = 5*x1
     x6 = x4*x5
-    x7 = sin(psi)
-    x8 = 1/r
-    x9 = cos_theta*dpsi*dtheta*m*r*r + 2*sin_theta*tau_steer - 2*tau_spin
-    x10 = cos(psi)
-    x11 = r*x3
-    x12 = r*x2
-    x13 = 6*x11
-    x14 = 3*m*(r*sin_theta*sin_theta*sin_theta*x5 - 4*sin_theta*x0 + sin_theta*x12 + x11 - x13*x4)
-    return ((1/8)*m*r*(r*(6*dphi*dphi - 12*sin_theta*x3 + x1 + x2 + x6) + 8*x0), -1/15*x10*x14 - 1/3*x7*x8*x9, (1/3)*x10*x8*x9 - 1/15*x14*x7, -1/5*m*(cos_theta*r*x6 - cos_theta*sin_theta*x13 + cos_theta*x12 + 4*g*x4 - 5*g),)
+    x7 = 5*(cos_theta*dpsi*dtheta*m*r*r + 2*sin_theta*tau_steer - 2*tau_spin)/r
+    x8 = r*x3
+    x9 = r*x2
+    x10 = 6*x8
+    x11 = 3*m*(r*sin_theta*sin_theta*sin_theta*x5 - 4*sin_theta*x0 + sin_theta*x9 - x10*x4 + x8)
+    return ((1/8)*m*r*(r*(6*dphi*dphi - 12*sin_theta*x3 + x1 + x2 + x6) + 8*x0), -1/15*cos_psi*x11 - 1/15*sin_psi*x7, (1/15)*cos_psi*x7 - 1/15*sin_psi*x11, -1/5*m*(cos_theta*r*x6 - cos_theta*sin_theta*x10 + cos_theta*x9 + 4*g*x4 - 5*g),)
 
 
-@kernel
+@inline_kernel
 def state_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
     """One step of dt seconds of explicit Euler (order 1) on the full model; returns the new state."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
-    x4 = 1/(m*r*r)
-    x5 = 2*x4
+    x2 = 1/(m*r*r)
+    x3 = 2*x2
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
-    x0_1 = sin(psi)
-    x1_1 = cos(psi)
-    x2_1 = cos_theta_1*dtheta
-    x3_1 = dpsi*sin_theta_1
-    x6_1 = cos_theta_1*dpsi
-    x7_1 = dphi/cos_theta_1
-    k1_c1 = r*(dphi*x0_1 - x0_1*x3_1 + x1_1*x2_1)
-    k1_c2 = r*(-dphi*x1_1 + x0_1*x2_1 + x1_1*x3_1)
-    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x7_1 + 5*x6_1) + (10/3)*sin_theta_1*tau_steer*x4 + (1/3)*tau_spin*x5
-    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x6_1 + (4/5)*g*sin_theta_1/r
-    k1_dpsi = 2*dtheta*x7_1 + 2*tau_steer*x5
+    sin_theta_1, cos_theta_1 = sincos(theta)
+    sin_psi_1, cos_psi_1 = sincos(psi)
+    x0_1 = cos_theta_1*dtheta
+    x1_1 = dpsi*sin_theta_1
+    x4_1 = cos_theta_1*dpsi
+    x5_1 = dphi/cos_theta_1
+    k1_c1 = r*(cos_psi_1*x0_1 + dphi*sin_psi_1 - sin_psi_1*x1_1)
+    k1_c2 = r*(-cos_psi_1*dphi + cos_psi_1*x1_1 + sin_psi_1*x0_1)
+    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x5_1 + 5*x4_1) + (10/3)*sin_theta_1*tau_steer*x2 + (1/3)*tau_spin*x3
+    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x4_1 + (4/5)*g*sin_theta_1/r
+    k1_dpsi = 2*dtheta*x5_1 + 2*tau_steer*x3
     # the step
     c1_new = c1 + dt*(k1_c1)
     c2_new = c2 + dt*(k1_c2)
@@ -119,32 +111,29 @@ def state_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
     return (c1_new, c2_new, phi_new, theta_new, psi_new, dphi_new, dtheta_new, dpsi_new)
 
 
-@kernel
+@inline_kernel
 def state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
     """One step of dt seconds of semi-implicit Euler (order 1): velocities from the accelerations at x, then coordinates from the new velocities on the full model; returns the new state."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
-    x4 = 1/(m*r*r)
-    x5 = 2*x4
+    x2 = 1/(m*r*r)
+    x3 = 2*x2
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
-    x6_1 = cos_theta_1*dpsi
-    x7_1 = dphi/cos_theta_1
-    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x7_1 + 5*x6_1) + (10/3)*sin_theta_1*tau_steer*x4 + (1/3)*tau_spin*x5
-    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x6_1 + (4/5)*g*sin_theta_1/r
-    k1_dpsi = 2*dtheta*x7_1 + 2*tau_steer*x5
+    sin_theta_1, cos_theta_1 = sincos(theta)
+    x4_1 = cos_theta_1*dpsi
+    x5_1 = dphi/cos_theta_1
+    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x5_1 + 5*x4_1) + (10/3)*sin_theta_1*tau_steer*x2 + (1/3)*tau_spin*x3
+    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x4_1 + (4/5)*g*sin_theta_1/r
+    k1_dpsi = 2*dtheta*x5_1 + 2*tau_steer*x3
     # stage 2
     dphi_2 = dphi + dt*(k1_dphi)
     dtheta_2 = dtheta + dt*(k1_dtheta)
     dpsi_2 = dpsi + dt*(k1_dpsi)
-    sin_theta_2 = sin(theta)
-    cos_theta_2 = cos(theta)
-    x0_2 = sin(psi)
-    x1_2 = cos(psi)
-    x2_2 = cos_theta_2*dtheta_2
-    x3_2 = dpsi_2*sin_theta_2
-    k2_c1 = r*(dphi_2*x0_2 - x0_2*x3_2 + x1_2*x2_2)
-    k2_c2 = r*(-dphi_2*x1_2 + x0_2*x2_2 + x1_2*x3_2)
+    sin_theta_2, cos_theta_2 = sincos(theta)
+    sin_psi_2, cos_psi_2 = sincos(psi)
+    x0_2 = cos_theta_2*dtheta_2
+    x1_2 = dpsi_2*sin_theta_2
+    k2_c1 = r*(cos_psi_2*x0_2 + dphi_2*sin_psi_2 - sin_psi_2*x1_2)
+    k2_c2 = r*(-cos_psi_2*dphi_2 + cos_psi_2*x1_2 + sin_psi_2*x0_2)
     # the step
     c1_new = c1 + dt*(k2_c1)
     c2_new = c2 + dt*(k2_c2)
@@ -157,83 +146,75 @@ def state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
     return (c1_new, c2_new, phi_new, theta_new, psi_new, dphi_new, dtheta_new, dpsi_new)
 
 
-@kernel
+@inline_kernel
 def state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r):
     """One step of dt seconds of the classical Runge-Kutta method (order 4) on the full model; returns the new state."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
-    x4 = 1/(m*r*r)
-    x5 = 2*x4
+    x2 = 1/(m*r*r)
+    x3 = 2*x2
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
-    x0_1 = sin(psi)
-    x1_1 = cos(psi)
-    x2_1 = cos_theta_1*dtheta
-    x3_1 = dpsi*sin_theta_1
-    x6_1 = cos_theta_1*dpsi
-    x7_1 = dphi/cos_theta_1
-    k1_c1 = r*(dphi*x0_1 - x0_1*x3_1 + x1_1*x2_1)
-    k1_c2 = r*(-dphi*x1_1 + x0_1*x2_1 + x1_1*x3_1)
-    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x7_1 + 5*x6_1) + (10/3)*sin_theta_1*tau_steer*x4 + (1/3)*tau_spin*x5
-    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x6_1 + (4/5)*g*sin_theta_1/r
-    k1_dpsi = 2*dtheta*x7_1 + 2*tau_steer*x5
+    sin_theta_1, cos_theta_1 = sincos(theta)
+    sin_psi_1, cos_psi_1 = sincos(psi)
+    x0_1 = cos_theta_1*dtheta
+    x1_1 = dpsi*sin_theta_1
+    x4_1 = cos_theta_1*dpsi
+    x5_1 = dphi/cos_theta_1
+    k1_c1 = r*(cos_psi_1*x0_1 + dphi*sin_psi_1 - sin_psi_1*x1_1)
+    k1_c2 = r*(-cos_psi_1*dphi + cos_psi_1*x1_1 + sin_psi_1*x0_1)
+    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x5_1 + 5*x4_1) + (10/3)*sin_theta_1*tau_steer*x2 + (1/3)*tau_spin*x3
+    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x4_1 + (4/5)*g*sin_theta_1/r
+    k1_dpsi = 2*dtheta*x5_1 + 2*tau_steer*x3
     # stage 2
     theta_2 = theta + dt*((1/2)*dtheta)
     psi_2 = psi + dt*((1/2)*dpsi)
     dphi_2 = dphi + dt*((1/2)*k1_dphi)
     dtheta_2 = dtheta + dt*((1/2)*k1_dtheta)
     dpsi_2 = dpsi + dt*((1/2)*k1_dpsi)
-    sin_theta_2 = sin(theta_2)
-    cos_theta_2 = cos(theta_2)
-    x0_2 = sin(psi_2)
-    x1_2 = cos(psi_2)
-    x2_2 = cos_theta_2*dtheta_2
-    x3_2 = dpsi_2*sin_theta_2
-    x6_2 = cos_theta_2*dpsi_2
-    x7_2 = dphi_2/cos_theta_2
-    k2_c1 = r*(dphi_2*x0_2 - x0_2*x3_2 + x1_2*x2_2)
-    k2_c2 = r*(-dphi_2*x1_2 + x0_2*x2_2 + x1_2*x3_2)
-    k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x7_2 + 5*x6_2) + (10/3)*sin_theta_2*tau_steer*x4 + (1/3)*tau_spin*x5
-    k2_dtheta = cos_theta_2*dpsi_2*dpsi_2*sin_theta_2 - 6/5*dphi_2*x6_2 + (4/5)*g*sin_theta_2/r
-    k2_dpsi = 2*dtheta_2*x7_2 + 2*tau_steer*x5
+    sin_theta_2, cos_theta_2 = sincos(theta_2)
+    sin_psi_2, cos_psi_2 = sincos(psi_2)
+    x0_2 = cos_theta_2*dtheta_2
+    x1_2 = dpsi_2*sin_theta_2
+    x4_2 = cos_theta_2*dpsi_2
+    x5_2 = dphi_2/cos_theta_2
+    k2_c1 = r*(cos_psi_2*x0_2 + dphi_2*sin_psi_2 - sin_psi_2*x1_2)
+    k2_c2 = r*(-cos_psi_2*dphi_2 + cos_psi_2*x1_2 + sin_psi_2*x0_2)
+    k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x5_2 + 5*x4_2) + (10/3)*sin_theta_2*tau_steer*x2 + (1/3)*tau_spin*x3
+    k2_dtheta = cos_theta_2*dpsi_2*dpsi_2*sin_theta_2 - 6/5*dphi_2*x4_2 + (4/5)*g*sin_theta_2/r
+    k2_dpsi = 2*dtheta_2*x5_2 + 2*tau_steer*x3
     # stage 3
     theta_3 = theta + dt*((1/2)*dtheta_2)
     psi_3 = psi + dt*((1/2)*dpsi_2)
     dphi_3 = dphi + dt*((1/2)*k2_dphi)
     dtheta_3 = dtheta + dt*((1/2)*k2_dtheta)
     dpsi_3 = dpsi + dt*((1/2)*k2_dpsi)
-    sin_theta_3 = sin(theta_3)
-    cos_theta_3 = cos(theta_3)
-    x0_3 = sin(psi_3)
-    x1_3 = cos(psi_3)
-    x2_3 = cos_theta_3*dtheta_3
-    x3_3 = dpsi_3*sin_theta_3
-    x6_3 = cos_theta_3*dpsi_3
-    x7_3 = dphi_3/cos_theta_3
-    k3_c1 = r*(dphi_3*x0_3 - x0_3*x3_3 + x1_3*x2_3)
-    k3_c2 = r*(-dphi_3*x1_3 + x0_3*x2_3 + x1_3*x3_3)
-    k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x7_3 + 5*x6_3) + (10/3)*sin_theta_3*tau_steer*x4 + (1/3)*tau_spin*x5
-    k3_dtheta = cos_theta_3*dpsi_3*dpsi_3*sin_theta_3 - 6/5*dphi_3*x6_3 + (4/5)*g*sin_theta_3/r
-    k3_dpsi = 2*dtheta_3*x7_3 + 2*tau_steer*x5
+    sin_theta_3, cos_theta_3 = sincos(theta_3)
+    sin_psi_3, cos_psi_3 = sincos(psi_3)
+    x0_3 = cos_theta_3*dtheta_3
+    x1_3 = dpsi_3*sin_theta_3
+    x4_3 = cos_theta_3*dpsi_3
+    x5_3 = dphi_3/cos_theta_3
+    k3_c1 = r*(cos_psi_3*x0_3 + dphi_3*sin_psi_3 - sin_psi_3*x1_3)
+    k3_c2 = r*(-cos_psi_3*dphi_3 + cos_psi_3*x1_3 + sin_psi_3*x0_3)
+    k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x5_3 + 5*x4_3) + (10/3)*sin_theta_3*tau_steer*x2 + (1/3)*tau_spin*x3
+    k3_dtheta = cos_theta_3*dpsi_3*dpsi_3*sin_theta_3 - 6/5*dphi_3*x4_3 + (4/5)*g*sin_theta_3/r
+    k3_dpsi = 2*dtheta_3*x5_3 + 2*tau_steer*x3
     # stage 4
     theta_4 = theta + dt*(dtheta_3)
     psi_4 = psi + dt*(dpsi_3)
     dphi_4 = dphi + dt*(k3_dphi)
     dtheta_4 = dtheta + dt*(k3_dtheta)
     dpsi_4 = dpsi + dt*(k3_dpsi)
-    sin_theta_4 = sin(theta_4)
-    cos_theta_4 = cos(theta_4)
-    x0_4 = sin(psi_4)
-    x1_4 = cos(psi_4)
-    x2_4 = cos_theta_4*dtheta_4
-    x3_4 = dpsi_4*sin_theta_4
-    x6_4 = cos_theta_4*dpsi_4
-    x7_4 = dphi_4/cos_theta_4
-    k4_c1 = r*(dphi_4*x0_4 - x0_4*x3_4 + x1_4*x2_4)
-    k4_c2 = r*(-dphi_4*x1_4 + x0_4*x2_4 + x1_4*x3_4)
-    k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x7_4 + 5*x6_4) + (10/3)*sin_theta_4*tau_steer*x4 + (1/3)*tau_spin*x5
-    k4_dtheta = cos_theta_4*dpsi_4*dpsi_4*sin_theta_4 - 6/5*dphi_4*x6_4 + (4/5)*g*sin_theta_4/r
-    k4_dpsi = 2*dtheta_4*x7_4 + 2*tau_steer*x5
+    sin_theta_4, cos_theta_4 = sincos(theta_4)
+    sin_psi_4, cos_psi_4 = sincos(psi_4)
+    x0_4 = cos_theta_4*dtheta_4
+    x1_4 = dpsi_4*sin_theta_4
+    x4_4 = cos_theta_4*dpsi_4
+    x5_4 = dphi_4/cos_theta_4
+    k4_c1 = r*(cos_psi_4*x0_4 + dphi_4*sin_psi_4 - sin_psi_4*x1_4)
+    k4_c2 = r*(-cos_psi_4*dphi_4 + cos_psi_4*x1_4 + sin_psi_4*x0_4)
+    k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x5_4 + 5*x4_4) + (10/3)*sin_theta_4*tau_steer*x2 + (1/3)*tau_spin*x3
+    k4_dtheta = cos_theta_4*dpsi_4*dpsi_4*sin_theta_4 - 6/5*dphi_4*x4_4 + (4/5)*g*sin_theta_4/r
+    k4_dpsi = 2*dtheta_4*x5_4 + 2*tau_steer*x3
     # the step
     c1_new = c1 + dt*((1/6)*k1_c1 + (1/3)*k2_c1 + (1/3)*k3_c1 + (1/6)*k4_c1)
     c2_new = c2 + dt*((1/6)*k1_c2 + (1/3)*k2_c2 + (1/3)*k3_c2 + (1/6)*k4_c2)
@@ -246,140 +227,126 @@ def state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r):
     return (c1_new, c2_new, phi_new, theta_new, psi_new, dphi_new, dtheta_new, dpsi_new)
 
 
-@kernel
+@inline_kernel
 def state_dopri5_step(x, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     """One step of dt seconds of Dormand-Prince 5(4) (order 5), with the embedded order-4 error estimate on the full model; returns the new state and the error norm of the step (accept it when <= 1)."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
-    x4 = 1/(m*r*r)
-    x5 = 2*x4
+    x2 = 1/(m*r*r)
+    x3 = 2*x2
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
-    x0_1 = sin(psi)
-    x1_1 = cos(psi)
-    x2_1 = cos_theta_1*dtheta
-    x3_1 = dpsi*sin_theta_1
-    x6_1 = cos_theta_1*dpsi
-    x7_1 = dphi/cos_theta_1
-    k1_c1 = r*(dphi*x0_1 - x0_1*x3_1 + x1_1*x2_1)
-    k1_c2 = r*(-dphi*x1_1 + x0_1*x2_1 + x1_1*x3_1)
-    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x7_1 + 5*x6_1) + (10/3)*sin_theta_1*tau_steer*x4 + (1/3)*tau_spin*x5
-    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x6_1 + (4/5)*g*sin_theta_1/r
-    k1_dpsi = 2*dtheta*x7_1 + 2*tau_steer*x5
+    sin_theta_1, cos_theta_1 = sincos(theta)
+    sin_psi_1, cos_psi_1 = sincos(psi)
+    x0_1 = cos_theta_1*dtheta
+    x1_1 = dpsi*sin_theta_1
+    x4_1 = cos_theta_1*dpsi
+    x5_1 = dphi/cos_theta_1
+    k1_c1 = r*(cos_psi_1*x0_1 + dphi*sin_psi_1 - sin_psi_1*x1_1)
+    k1_c2 = r*(-cos_psi_1*dphi + cos_psi_1*x1_1 + sin_psi_1*x0_1)
+    k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x5_1 + 5*x4_1) + (10/3)*sin_theta_1*tau_steer*x2 + (1/3)*tau_spin*x3
+    k1_dtheta = cos_theta_1*dpsi*dpsi*sin_theta_1 - 6/5*dphi*x4_1 + (4/5)*g*sin_theta_1/r
+    k1_dpsi = 2*dtheta*x5_1 + 2*tau_steer*x3
     # stage 2
     theta_2 = theta + dt*((1/5)*dtheta)
     psi_2 = psi + dt*((1/5)*dpsi)
     dphi_2 = dphi + dt*((1/5)*k1_dphi)
     dtheta_2 = dtheta + dt*((1/5)*k1_dtheta)
     dpsi_2 = dpsi + dt*((1/5)*k1_dpsi)
-    sin_theta_2 = sin(theta_2)
-    cos_theta_2 = cos(theta_2)
-    x0_2 = sin(psi_2)
-    x1_2 = cos(psi_2)
-    x2_2 = cos_theta_2*dtheta_2
-    x3_2 = dpsi_2*sin_theta_2
-    x6_2 = cos_theta_2*dpsi_2
-    x7_2 = dphi_2/cos_theta_2
-    k2_c1 = r*(dphi_2*x0_2 - x0_2*x3_2 + x1_2*x2_2)
-    k2_c2 = r*(-dphi_2*x1_2 + x0_2*x2_2 + x1_2*x3_2)
-    k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x7_2 + 5*x6_2) + (10/3)*sin_theta_2*tau_steer*x4 + (1/3)*tau_spin*x5
-    k2_dtheta = cos_theta_2*dpsi_2*dpsi_2*sin_theta_2 - 6/5*dphi_2*x6_2 + (4/5)*g*sin_theta_2/r
-    k2_dpsi = 2*dtheta_2*x7_2 + 2*tau_steer*x5
+    sin_theta_2, cos_theta_2 = sincos(theta_2)
+    sin_psi_2, cos_psi_2 = sincos(psi_2)
+    x0_2 = cos_theta_2*dtheta_2
+    x1_2 = dpsi_2*sin_theta_2
+    x4_2 = cos_theta_2*dpsi_2
+    x5_2 = dphi_2/cos_theta_2
+    k2_c1 = r*(cos_psi_2*x0_2 + dphi_2*sin_psi_2 - sin_psi_2*x1_2)
+    k2_c2 = r*(-cos_psi_2*dphi_2 + cos_psi_2*x1_2 + sin_psi_2*x0_2)
+    k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x5_2 + 5*x4_2) + (10/3)*sin_theta_2*tau_steer*x2 + (1/3)*tau_spin*x3
+    k2_dtheta = cos_theta_2*dpsi_2*dpsi_2*sin_theta_2 - 6/5*dphi_2*x4_2 + (4/5)*g*sin_theta_2/r
+    k2_dpsi = 2*dtheta_2*x5_2 + 2*tau_steer*x3
     # stage 3
     theta_3 = theta + dt*((3/40)*dtheta + (9/40)*dtheta_2)
     psi_3 = psi + dt*((3/40)*dpsi + (9/40)*dpsi_2)
     dphi_3 = dphi + dt*((3/40)*k1_dphi + (9/40)*k2_dphi)
     dtheta_3 = dtheta + dt*((3/40)*k1_dtheta + (9/40)*k2_dtheta)
     dpsi_3 = dpsi + dt*((3/40)*k1_dpsi + (9/40)*k2_dpsi)
-    sin_theta_3 = sin(theta_3)
-    cos_theta_3 = cos(theta_3)
-    x0_3 = sin(psi_3)
-    x1_3 = cos(psi_3)
-    x2_3 = cos_theta_3*dtheta_3
-    x3_3 = dpsi_3*sin_theta_3
-    x6_3 = cos_theta_3*dpsi_3
-    x7_3 = dphi_3/cos_theta_3
-    k3_c1 = r*(dphi_3*x0_3 - x0_3*x3_3 + x1_3*x2_3)
-    k3_c2 = r*(-dphi_3*x1_3 + x0_3*x2_3 + x1_3*x3_3)
-    k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x7_3 + 5*x6_3) + (10/3)*sin_theta_3*tau_steer*x4 + (1/3)*tau_spin*x5
-    k3_dtheta = cos_theta_3*dpsi_3*dpsi_3*sin_theta_3 - 6/5*dphi_3*x6_3 + (4/5)*g*sin_theta_3/r
-    k3_dpsi = 2*dtheta_3*x7_3 + 2*tau_steer*x5
+    sin_theta_3, cos_theta_3 = sincos(theta_3)
+    sin_psi_3, cos_psi_3 = sincos(psi_3)
+    x0_3 = cos_theta_3*dtheta_3
+    x1_3 = dpsi_3*sin_theta_3
+    x4_3 = cos_theta_3*dpsi_3
+    x5_3 = dphi_3/cos_theta_3
+    k3_c1 = r*(cos_psi_3*x0_3 + dphi_3*sin_psi_3 - sin_psi_3*x1_3)
+    k3_c2 = r*(-cos_psi_3*dphi_3 + cos_psi_3*x1_3 + sin_psi_3*x0_3)
+    k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x5_3 + 5*x4_3) + (10/3)*sin_theta_3*tau_steer*x2 + (1/3)*tau_spin*x3
+    k3_dtheta = cos_theta_3*dpsi_3*dpsi_3*sin_theta_3 - 6/5*dphi_3*x4_3 + (4/5)*g*sin_theta_3/r
+    k3_dpsi = 2*dtheta_3*x5_3 + 2*tau_steer*x3
     # stage 4
     theta_4 = theta + dt*((44/45)*dtheta - (56/15)*dtheta_2 + (32/9)*dtheta_3)
     psi_4 = psi + dt*((44/45)*dpsi - (56/15)*dpsi_2 + (32/9)*dpsi_3)
     dphi_4 = dphi + dt*((44/45)*k1_dphi - (56/15)*k2_dphi + (32/9)*k3_dphi)
     dtheta_4 = dtheta + dt*((44/45)*k1_dtheta - (56/15)*k2_dtheta + (32/9)*k3_dtheta)
     dpsi_4 = dpsi + dt*((44/45)*k1_dpsi - (56/15)*k2_dpsi + (32/9)*k3_dpsi)
-    sin_theta_4 = sin(theta_4)
-    cos_theta_4 = cos(theta_4)
-    x0_4 = sin(psi_4)
-    x1_4 = cos(psi_4)
-    x2_4 = cos_theta_4*dtheta_4
-    x3_4 = dpsi_4*sin_theta_4
-    x6_4 = cos_theta_4*dpsi_4
-    x7_4 = dphi_4/cos_theta_4
-    k4_c1 = r*(dphi_4*x0_4 - x0_4*x3_4 + x1_4*x2_4)
-    k4_c2 = r*(-dphi_4*x1_4 + x0_4*x2_4 + x1_4*x3_4)
-    k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x7_4 + 5*x6_4) + (10/3)*sin_theta_4*tau_steer*x4 + (1/3)*tau_spin*x5
-    k4_dtheta = cos_theta_4*dpsi_4*dpsi_4*sin_theta_4 - 6/5*dphi_4*x6_4 + (4/5)*g*sin_theta_4/r
-    k4_dpsi = 2*dtheta_4*x7_4 + 2*tau_steer*x5
+    sin_theta_4, cos_theta_4 = sincos(theta_4)
+    sin_psi_4, cos_psi_4 = sincos(psi_4)
+    x0_4 = cos_theta_4*dtheta_4
+    x1_4 = dpsi_4*sin_theta_4
+    x4_4 = cos_theta_4*dpsi_4
+    x5_4 = dphi_4/cos_theta_4
+    k4_c1 = r*(cos_psi_4*x0_4 + dphi_4*sin_psi_4 - sin_psi_4*x1_4)
+    k4_c2 = r*(-cos_psi_4*dphi_4 + cos_psi_4*x1_4 + sin_psi_4*x0_4)
+    k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x5_4 + 5*x4_4) + (10/3)*sin_theta_4*tau_steer*x2 + (1/3)*tau_spin*x3
+    k4_dtheta = cos_theta_4*dpsi_4*dpsi_4*sin_theta_4 - 6/5*dphi_4*x4_4 + (4/5)*g*sin_theta_4/r
+    k4_dpsi = 2*dtheta_4*x5_4 + 2*tau_steer*x3
     # stage 5
     theta_5 = theta + dt*((19372/6561)*dtheta - (25360/2187)*dtheta_2 + (64448/6561)*dtheta_3 - (212/729)*dtheta_4)
     psi_5 = psi + dt*((19372/6561)*dpsi - (25360/2187)*dpsi_2 + (64448/6561)*dpsi_3 - (212/729)*dpsi_4)
     dphi_5 = dphi + dt*((19372/6561)*k1_dphi - (25360/2187)*k2_dphi + (64448/6561)*k3_dphi - (212/729)*k4_dphi)
     dtheta_5 = dtheta + dt*((19372/6561)*k1_dtheta - (25360/2187)*k2_dtheta + (64448/6561)*k3_dtheta - (212/729)*k4_dtheta)
     dpsi_5 = dpsi + dt*((19372/6561)*k1_dpsi - (25360/2187)*k2_dpsi + (64448/6561)*k3_dpsi - (212/729)*k4_dpsi)
-    sin_theta_5 = sin(theta_5)
-    cos_theta_5 = cos(theta_5)
-    x0_5 = sin(psi_5)
-    x1_5 = cos(psi_5)
-    x2_5 = cos_theta_5*dtheta_5
-    x3_5 = dpsi_5*sin_theta_5
-    x6_5 = cos_theta_5*dpsi_5
-    x7_5 = dphi_5/cos_theta_5
-    k5_c1 = r*(dphi_5*x0_5 - x0_5*x3_5 + x1_5*x2_5)
-    k5_c2 = r*(-dphi_5*x1_5 + x0_5*x2_5 + x1_5*x3_5)
-    k5_dphi = (1/3)*dtheta_5*(6*sin_theta_5*x7_5 + 5*x6_5) + (10/3)*sin_theta_5*tau_steer*x4 + (1/3)*tau_spin*x5
-    k5_dtheta = cos_theta_5*dpsi_5*dpsi_5*sin_theta_5 - 6/5*dphi_5*x6_5 + (4/5)*g*sin_theta_5/r
-    k5_dpsi = 2*dtheta_5*x7_5 + 2*tau_steer*x5
+    sin_theta_5, cos_theta_5 = sincos(theta_5)
+    sin_psi_5, cos_psi_5 = sincos(psi_5)
+    x0_5 = cos_theta_5*dtheta_5
+    x1_5 = dpsi_5*sin_theta_5
+    x4_5 = cos_theta_5*dpsi_5
+    x5_5 = dphi_5/cos_theta_5
+    k5_c1 = r*(cos_psi_5*x0_5 + dphi_5*sin_psi_5 - sin_psi_5*x1_5)
+    k5_c2 = r*(-cos_psi_5*dphi_5 + cos_psi_5*x1_5 + sin_psi_5*x0_5)
+    k5_dphi = (1/3)*dtheta_5*(6*sin_theta_5*x5_5 + 5*x4_5) + (10/3)*sin_theta_5*tau_steer*x2 + (1/3)*tau_spin*x3
+    k5_dtheta = cos_theta_5*dpsi_5*dpsi_5*sin_theta_5 - 6/5*dphi_5*x4_5 + (4/5)*g*sin_theta_5/r
+    k5_dpsi = 2*dtheta_5*x5_5 + 2*tau_steer*x3
     # stage 6
     theta_6 = theta + dt*((9017/3168)*dtheta - (355/33)*dtheta_2 + (46732/5247)*dtheta_3 + (49/176)*dtheta_4 - (5103/18656)*dtheta_5)
     psi_6 = psi + dt*((9017/3168)*dpsi - (355/33)*dpsi_2 + (46732/5247)*dpsi_3 + (49/176)*dpsi_4 - (5103/18656)*dpsi_5)
     dphi_6 = dphi + dt*((9017/3168)*k1_dphi - (355/33)*k2_dphi + (46732/5247)*k3_dphi + (49/176)*k4_dphi - (5103/18656)*k5_dphi)
     dtheta_6 = dtheta + dt*((9017/3168)*k1_dtheta - (355/33)*k2_dtheta + (46732/5247)*k3_dtheta + (49/176)*k4_dtheta - (5103/18656)*k5_dtheta)
     dpsi_6 = dpsi + dt*((9017/3168)*k1_dpsi - (355/33)*k2_dpsi + (46732/5247)*k3_dpsi + (49/176)*k4_dpsi - (5103/18656)*k5_dpsi)
-    sin_theta_6 = sin(theta_6)
-    cos_theta_6 = cos(theta_6)
-    x0_6 = sin(psi_6)
-    x1_6 = cos(psi_6)
-    x2_6 = cos_theta_6*dtheta_6
-    x3_6 = dpsi_6*sin_theta_6
-    x6_6 = cos_theta_6*dpsi_6
-    x7_6 = dphi_6/cos_theta_6
-    k6_c1 = r*(dphi_6*x0_6 - x0_6*x3_6 + x1_6*x2_6)
-    k6_c2 = r*(-dphi_6*x1_6 + x0_6*x2_6 + x1_6*x3_6)
-    k6_dphi = (1/3)*dtheta_6*(6*sin_theta_6*x7_6 + 5*x6_6) + (10/3)*sin_theta_6*tau_steer*x4 + (1/3)*tau_spin*x5
-    k6_dtheta = cos_theta_6*dpsi_6*dpsi_6*sin_theta_6 - 6/5*dphi_6*x6_6 + (4/5)*g*sin_theta_6/r
-    k6_dpsi = 2*dtheta_6*x7_6 + 2*tau_steer*x5
+    sin_theta_6, cos_theta_6 = sincos(theta_6)
+    sin_psi_6, cos_psi_6 = sincos(psi_6)
+    x0_6 = cos_theta_6*dtheta_6
+    x1_6 = dpsi_6*sin_theta_6
+    x4_6 = cos_theta_6*dpsi_6
+    x5_6 = dphi_6/cos_theta_6
+    k6_c1 = r*(cos_psi_6*x0_6 + dphi_6*sin_psi_6 - sin_psi_6*x1_6)
+    k6_c2 = r*(-cos_psi_6*dphi_6 + cos_psi_6*x1_6 + sin_psi_6*x0_6)
+    k6_dphi = (1/3)*dtheta_6*(6*sin_theta_6*x5_6 + 5*x4_6) + (10/3)*sin_theta_6*tau_steer*x2 + (1/3)*tau_spin*x3
+    k6_dtheta = cos_theta_6*dpsi_6*dpsi_6*sin_theta_6 - 6/5*dphi_6*x4_6 + (4/5)*g*sin_theta_6/r
+    k6_dpsi = 2*dtheta_6*x5_6 + 2*tau_steer*x3
     # stage 7
     theta_7 = theta + dt*((35/384)*dtheta + (500/1113)*dtheta_3 + (125/192)*dtheta_4 - (2187/6784)*dtheta_5 + (11/84)*dtheta_6)
     psi_7 = psi + dt*((35/384)*dpsi + (500/1113)*dpsi_3 + (125/192)*dpsi_4 - (2187/6784)*dpsi_5 + (11/84)*dpsi_6)
     dphi_7 = dphi + dt*((35/384)*k1_dphi + (500/1113)*k3_dphi + (125/192)*k4_dphi - (2187/6784)*k5_dphi + (11/84)*k6_dphi)
     dtheta_7 = dtheta + dt*((35/384)*k1_dtheta + (500/1113)*k3_dtheta + (125/192)*k4_dtheta - (2187/6784)*k5_dtheta + (11/84)*k6_dtheta)
     dpsi_7 = dpsi + dt*((35/384)*k1_dpsi + (500/1113)*k3_dpsi + (125/192)*k4_dpsi - (2187/6784)*k5_dpsi + (11/84)*k6_dpsi)
-    sin_theta_7 = sin(theta_7)
-    cos_theta_7 = cos(theta_7)
-    x0_7 = sin(psi_7)
-    x1_7 = cos(psi_7)
-    x2_7 = cos_theta_7*dtheta_7
-    x3_7 = dpsi_7*sin_theta_7
-    x6_7 = cos_theta_7*dpsi_7
-    x7_7 = dphi_7/cos_theta_7
-    k7_c1 = r*(dphi_7*x0_7 - x0_7*x3_7 + x1_7*x2_7)
-    k7_c2 = r*(-dphi_7*x1_7 + x0_7*x2_7 + x1_7*x3_7)
-    k7_dphi = (1/3)*dtheta_7*(6*sin_theta_7*x7_7 + 5*x6_7) + (10/3)*sin_theta_7*tau_steer*x4 + (1/3)*tau_spin*x5
-    k7_dtheta = cos_theta_7*dpsi_7*dpsi_7*sin_theta_7 - 6/5*dphi_7*x6_7 + (4/5)*g*sin_theta_7/r
-    k7_dpsi = 2*dtheta_7*x7_7 + 2*tau_steer*x5
+    sin_theta_7, cos_theta_7 = sincos(theta_7)
+    sin_psi_7, cos_psi_7 = sincos(psi_7)
+    x0_7 = cos_theta_7*dtheta_7
+    x1_7 = dpsi_7*sin_theta_7
+    x4_7 = cos_theta_7*dpsi_7
+    x5_7 = dphi_7/cos_theta_7
+    k7_c1 = r*(cos_psi_7*x0_7 + dphi_7*sin_psi_7 - sin_psi_7*x1_7)
+    k7_c2 = r*(-cos_psi_7*dphi_7 + cos_psi_7*x1_7 + sin_psi_7*x0_7)
+    k7_dphi = (1/3)*dtheta_7*(6*sin_theta_7*x5_7 + 5*x4_7) + (10/3)*sin_theta_7*tau_steer*x2 + (1/3)*tau_spin*x3
+    k7_dtheta = cos_theta_7*dpsi_7*dpsi_7*sin_theta_7 - 6/5*dphi_7*x4_7 + (4/5)*g*sin_theta_7/r
+    k7_dpsi = 2*dtheta_7*x5_7 + 2*tau_steer*x3
     # the step
     c1_new = c1 + dt*((35/384)*k1_c1 + (500/1113)*k3_c1 + (125/192)*k4_c1 - (2187/6784)*k5_c1 + (11/84)*k6_c1)
     c2_new = c2 + dt*((35/384)*k1_c2 + (500/1113)*k3_c2 + (125/192)*k4_c2 - (2187/6784)*k5_c2 + (11/84)*k6_c2)
@@ -410,15 +377,14 @@ def state_dopri5_step(x, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     return (c1_new, c2_new, phi_new, theta_new, psi_new, dphi_new, dtheta_new, dpsi_new), error
 
 
-@kernel
+@inline_kernel
 def lean_euler_step(y, dt, tau_spin, tau_steer, m, g, r):
     """One step of dt seconds of explicit Euler (order 1) on the lean model; returns the new state."""
     theta, dphi, dtheta, dpsi = y
     x0 = 1/(m*r*r)
     x1 = 2*x0
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
+    sin_theta_1, cos_theta_1 = sincos(theta)
     x2_1 = cos_theta_1*dpsi
     x3_1 = dphi/cos_theta_1
     k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x3_1 + 5*x2_1) + (10/3)*sin_theta_1*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -432,15 +398,14 @@ def lean_euler_step(y, dt, tau_spin, tau_steer, m, g, r):
     return (theta_new, dphi_new, dtheta_new, dpsi_new)
 
 
-@kernel
+@inline_kernel
 def lean_symplectic_euler_step(y, dt, tau_spin, tau_steer, m, g, r):
     """One step of dt seconds of semi-implicit Euler (order 1): velocities from the accelerations at x, then coordinates from the new velocities on the lean model; returns the new state."""
     theta, dphi, dtheta, dpsi = y
     x0 = 1/(m*r*r)
     x1 = 2*x0
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
+    sin_theta_1, cos_theta_1 = sincos(theta)
     x2_1 = cos_theta_1*dpsi
     x3_1 = dphi/cos_theta_1
     k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x3_1 + 5*x2_1) + (10/3)*sin_theta_1*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -456,15 +421,14 @@ def lean_symplectic_euler_step(y, dt, tau_spin, tau_steer, m, g, r):
     return (theta_new, dphi_new, dtheta_new, dpsi_new)
 
 
-@kernel
+@inline_kernel
 def lean_rk4_step(y, dt, tau_spin, tau_steer, m, g, r):
     """One step of dt seconds of the classical Runge-Kutta method (order 4) on the lean model; returns the new state."""
     theta, dphi, dtheta, dpsi = y
     x0 = 1/(m*r*r)
     x1 = 2*x0
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
+    sin_theta_1, cos_theta_1 = sincos(theta)
     x2_1 = cos_theta_1*dpsi
     x3_1 = dphi/cos_theta_1
     k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x3_1 + 5*x2_1) + (10/3)*sin_theta_1*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -475,8 +439,7 @@ def lean_rk4_step(y, dt, tau_spin, tau_steer, m, g, r):
     dphi_2 = dphi + dt*((1/2)*k1_dphi)
     dtheta_2 = dtheta + dt*((1/2)*k1_dtheta)
     dpsi_2 = dpsi + dt*((1/2)*k1_dpsi)
-    sin_theta_2 = sin(theta_2)
-    cos_theta_2 = cos(theta_2)
+    sin_theta_2, cos_theta_2 = sincos(theta_2)
     x2_2 = cos_theta_2*dpsi_2
     x3_2 = dphi_2/cos_theta_2
     k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x3_2 + 5*x2_2) + (10/3)*sin_theta_2*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -487,8 +450,7 @@ def lean_rk4_step(y, dt, tau_spin, tau_steer, m, g, r):
     dphi_3 = dphi + dt*((1/2)*k2_dphi)
     dtheta_3 = dtheta + dt*((1/2)*k2_dtheta)
     dpsi_3 = dpsi + dt*((1/2)*k2_dpsi)
-    sin_theta_3 = sin(theta_3)
-    cos_theta_3 = cos(theta_3)
+    sin_theta_3, cos_theta_3 = sincos(theta_3)
     x2_3 = cos_theta_3*dpsi_3
     x3_3 = dphi_3/cos_theta_3
     k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x3_3 + 5*x2_3) + (10/3)*sin_theta_3*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -499,8 +461,7 @@ def lean_rk4_step(y, dt, tau_spin, tau_steer, m, g, r):
     dphi_4 = dphi + dt*(k3_dphi)
     dtheta_4 = dtheta + dt*(k3_dtheta)
     dpsi_4 = dpsi + dt*(k3_dpsi)
-    sin_theta_4 = sin(theta_4)
-    cos_theta_4 = cos(theta_4)
+    sin_theta_4, cos_theta_4 = sincos(theta_4)
     x2_4 = cos_theta_4*dpsi_4
     x3_4 = dphi_4/cos_theta_4
     k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x3_4 + 5*x2_4) + (10/3)*sin_theta_4*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -514,15 +475,14 @@ def lean_rk4_step(y, dt, tau_spin, tau_steer, m, g, r):
     return (theta_new, dphi_new, dtheta_new, dpsi_new)
 
 
-@kernel
+@inline_kernel
 def lean_dopri5_step(y, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     """One step of dt seconds of Dormand-Prince 5(4) (order 5), with the embedded order-4 error estimate on the lean model; returns the new state and the error norm of the step (accept it when <= 1)."""
     theta, dphi, dtheta, dpsi = y
     x0 = 1/(m*r*r)
     x1 = 2*x0
     # stage 1: at x
-    sin_theta_1 = sin(theta)
-    cos_theta_1 = cos(theta)
+    sin_theta_1, cos_theta_1 = sincos(theta)
     x2_1 = cos_theta_1*dpsi
     x3_1 = dphi/cos_theta_1
     k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x3_1 + 5*x2_1) + (10/3)*sin_theta_1*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -533,8 +493,7 @@ def lean_dopri5_step(y, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     dphi_2 = dphi + dt*((1/5)*k1_dphi)
     dtheta_2 = dtheta + dt*((1/5)*k1_dtheta)
     dpsi_2 = dpsi + dt*((1/5)*k1_dpsi)
-    sin_theta_2 = sin(theta_2)
-    cos_theta_2 = cos(theta_2)
+    sin_theta_2, cos_theta_2 = sincos(theta_2)
     x2_2 = cos_theta_2*dpsi_2
     x3_2 = dphi_2/cos_theta_2
     k2_dphi = (1/3)*dtheta_2*(6*sin_theta_2*x3_2 + 5*x2_2) + (10/3)*sin_theta_2*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -545,8 +504,7 @@ def lean_dopri5_step(y, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     dphi_3 = dphi + dt*((3/40)*k1_dphi + (9/40)*k2_dphi)
     dtheta_3 = dtheta + dt*((3/40)*k1_dtheta + (9/40)*k2_dtheta)
     dpsi_3 = dpsi + dt*((3/40)*k1_dpsi + (9/40)*k2_dpsi)
-    sin_theta_3 = sin(theta_3)
-    cos_theta_3 = cos(theta_3)
+    sin_theta_3, cos_theta_3 = sincos(theta_3)
     x2_3 = cos_theta_3*dpsi_3
     x3_3 = dphi_3/cos_theta_3
     k3_dphi = (1/3)*dtheta_3*(6*sin_theta_3*x3_3 + 5*x2_3) + (10/3)*sin_theta_3*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -557,8 +515,7 @@ def lean_dopri5_step(y, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     dphi_4 = dphi + dt*((44/45)*k1_dphi - (56/15)*k2_dphi + (32/9)*k3_dphi)
     dtheta_4 = dtheta + dt*((44/45)*k1_dtheta - (56/15)*k2_dtheta + (32/9)*k3_dtheta)
     dpsi_4 = dpsi + dt*((44/45)*k1_dpsi - (56/15)*k2_dpsi + (32/9)*k3_dpsi)
-    sin_theta_4 = sin(theta_4)
-    cos_theta_4 = cos(theta_4)
+    sin_theta_4, cos_theta_4 = sincos(theta_4)
     x2_4 = cos_theta_4*dpsi_4
     x3_4 = dphi_4/cos_theta_4
     k4_dphi = (1/3)*dtheta_4*(6*sin_theta_4*x3_4 + 5*x2_4) + (10/3)*sin_theta_4*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -569,8 +526,7 @@ def lean_dopri5_step(y, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     dphi_5 = dphi + dt*((19372/6561)*k1_dphi - (25360/2187)*k2_dphi + (64448/6561)*k3_dphi - (212/729)*k4_dphi)
     dtheta_5 = dtheta + dt*((19372/6561)*k1_dtheta - (25360/2187)*k2_dtheta + (64448/6561)*k3_dtheta - (212/729)*k4_dtheta)
     dpsi_5 = dpsi + dt*((19372/6561)*k1_dpsi - (25360/2187)*k2_dpsi + (64448/6561)*k3_dpsi - (212/729)*k4_dpsi)
-    sin_theta_5 = sin(theta_5)
-    cos_theta_5 = cos(theta_5)
+    sin_theta_5, cos_theta_5 = sincos(theta_5)
     x2_5 = cos_theta_5*dpsi_5
     x3_5 = dphi_5/cos_theta_5
     k5_dphi = (1/3)*dtheta_5*(6*sin_theta_5*x3_5 + 5*x2_5) + (10/3)*sin_theta_5*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -581,8 +537,7 @@ def lean_dopri5_step(y, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     dphi_6 = dphi + dt*((9017/3168)*k1_dphi - (355/33)*k2_dphi + (46732/5247)*k3_dphi + (49/176)*k4_dphi - (5103/18656)*k5_dphi)
     dtheta_6 = dtheta + dt*((9017/3168)*k1_dtheta - (355/33)*k2_dtheta + (46732/5247)*k3_dtheta + (49/176)*k4_dtheta - (5103/18656)*k5_dtheta)
     dpsi_6 = dpsi + dt*((9017/3168)*k1_dpsi - (355/33)*k2_dpsi + (46732/5247)*k3_dpsi + (49/176)*k4_dpsi - (5103/18656)*k5_dpsi)
-    sin_theta_6 = sin(theta_6)
-    cos_theta_6 = cos(theta_6)
+    sin_theta_6, cos_theta_6 = sincos(theta_6)
     x2_6 = cos_theta_6*dpsi_6
     x3_6 = dphi_6/cos_theta_6
     k6_dphi = (1/3)*dtheta_6*(6*sin_theta_6*x3_6 + 5*x2_6) + (10/3)*sin_theta_6*tau_steer*x0 + (1/3)*tau_spin*x1
@@ -593,8 +548,7 @@ def lean_dopri5_step(y, dt, tau_spin, tau_steer, m, g, r, rtol, atol):
     dphi_7 = dphi + dt*((35/384)*k1_dphi + (500/1113)*k3_dphi + (125/192)*k4_dphi - (2187/6784)*k5_dphi + (11/84)*k6_dphi)
     dtheta_7 = dtheta + dt*((35/384)*k1_dtheta + (500/1113)*k3_dtheta + (125/192)*k4_dtheta - (2187/6784)*k5_dtheta + (11/84)*k6_dtheta)
     dpsi_7 = dpsi + dt*((35/384)*k1_dpsi + (500/1113)*k3_dpsi + (125/192)*k4_dpsi - (2187/6784)*k5_dpsi + (11/84)*k6_dpsi)
-    sin_theta_7 = sin(theta_7)
-    cos_theta_7 = cos(theta_7)
+    sin_theta_7, cos_theta_7 = sincos(theta_7)
     x2_7 = cos_theta_7*dpsi_7
     x3_7 = dphi_7/cos_theta_7
     k7_dphi = (1/3)*dtheta_7*(6*sin_theta_7*x3_7 + 5*x2_7) + (10/3)*sin_theta_7*tau_steer*x0 + (1/3)*tau_spin*x1

@@ -44,7 +44,8 @@ class Outputs:
 
 
 class DiskBatch:
-    """The state of N disks (their episodes' disks, goals, step counts) and their compiled step and reset.
+    """The state of N disks (in the engine's lanes array, with their goals and step counts) and the compiled step and
+    reset of their task.
 
     Args:
         config: the env's checked settings.
@@ -64,11 +65,10 @@ class DiskBatch:
         self.terms = len(task.reward_weights)
         self.observation_size = len(task.observation_names)
         # Per disk.
-        self.states = np.zeros((num_envs, 8))
-        self.disks = np.tile(np.array(config.params.constants), (num_envs, 1))
+        self.lanes = np.zeros((engine.LANES, num_envs))
+        self.lanes[engine.MASS : engine.RADIUS + 1] = np.array(config.params.constants)[:, None]
         self.goals = np.zeros((num_envs, len(task.goal_names)))
         self.steps = np.zeros(num_envs, dtype=np.int64)
-        self.sizes = np.zeros(num_envs)
         # Tracking errors, summed, for the success rule TRACK; grown as episodes get longer.
         tracked = task.success == TRACK
         self.error_sums = np.zeros((num_envs, (max_episode_steps or 1024) + 1 if tracked else 1))
@@ -83,6 +83,16 @@ class DiskBatch:
         self.weights = task.weights
         self.bounds = task.observation_high
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
+
+    @property
+    def states(self) -> np.ndarray:
+        """The disks' states, (8, N): a view of the lanes."""
+        return self.lanes[engine.STATE : engine.STATE + 8]
+
+    @property
+    def disks(self) -> np.ndarray:
+        """The disks' constants (m, g, r), (3, N): a view of the lanes."""
+        return self.lanes[engine.MASS : engine.RADIUS + 1]
 
     def outputs(self) -> Outputs:
         return Outputs.empty(self.num_envs, self.observation_size, self.terms)
@@ -104,11 +114,9 @@ class DiskBatch:
             self._no_rngs if rngs is None else rngs,
             self.uniforms,
             self.no_state if states is None else states,
-            self.states,
-            self.disks,
+            self.lanes,
             self.goals,
             self.steps,
-            self.sizes,
             self.error_sums,
             self.config,
             self.disk_ranges,
@@ -121,8 +129,8 @@ class DiskBatch:
             out.status,
         )
 
-    def step(self, actions: np.ndarray, skip: np.ndarray, out: Outputs) -> int:
-        """Steps the disks not in ``skip`` under normalized ``actions`` (N, A), writing their outputs into ``out``.
+    def step(self, actions: np.ndarray, out: Outputs) -> int:
+        """Steps every disk under normalized ``actions`` (N, A), writing the outputs into ``out``.
 
         Returns:
             The first disk whose action is not finite (then nothing was stepped), or -1.
@@ -131,13 +139,10 @@ class DiskBatch:
             self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
         step = self._step_parallel if self.parallel else self._step
         return step(
-            skip,
             actions,
-            self.states,
-            self.disks,
+            self.lanes,
             self.goals,
             self.steps,
-            self.sizes,
             self.error_sums,
             self.config,
             self.actuators,

@@ -132,7 +132,6 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = self.config.observation_space
         self._batch = DiskBatch(self.config, 1, None)
         self._out = self._batch.outputs()
-        self._stepping = np.zeros(1, dtype=bool)
         self._reset_mask = np.ones(1, dtype=bool)
         self._term_keys = [f"reward_{name}" for name in self.task.reward_weights]
         self._renderer = None
@@ -148,10 +147,10 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         batch.uniforms[0] = self.np_random.random(self.config.draws)
         batch.reset(self._reset_mask, self._out, states=None if state is None else state[None])
         self._started = True
-        m, g, r = batch.disks[0].tolist()
+        m, g, r = batch.disks[:, 0].tolist()
         self.params = DiskParams(mass=m, radius=r, gravity=g) if self.config.params_ranges else self.config.params
         self.goal = dict(zip(self.task.goal_names, batch.goals[0].tolist()))
-        self._track = None if self.render_mode is None else deque([tuple(batch.states[0, :2])], TRACK_LENGTH)
+        self._track = None if self.render_mode is None else deque([tuple(batch.states[:2, 0])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
         return self._out.observations[0].copy(), self._info(terminated=False, stepped=False)
@@ -161,12 +160,12 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             raise gym.error.ResetNeeded("call reset() before step()")
         actions = self._actions(action)
         out = self._out
-        if self._batch.step(actions, self._stepping, out) >= 0:
+        if self._batch.step(actions, out) >= 0:
             raise ValueError(f"action must be finite numbers, got {action!r}")
         terminated = bool(out.flags[0, engine.TERMINATED])
         info = self._info(terminated, stepped=True)
         if self._track is not None:
-            self._track.append(tuple(self._batch.states[0, :2]))
+            self._track.append(tuple(self._batch.states[:2, 0]))
         if self.render_mode == "human":
             self.render()
         return out.observations[0].copy(), self._out.info[0, engine.REWARD].item(), terminated, False, info
@@ -207,7 +206,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
             self._renderer = DiskRenderer(self.render_mode, self.metadata["render_fps"])
         time = self._batch.steps[0] * self.dt
-        state = self._batch.states[0].tolist()
+        state = self._batch.states[:, 0].tolist()
         return self._renderer.draw(time, state, self.params, self.goal, self.task, self._track)
 
     def close(self):

@@ -147,7 +147,7 @@ class RollingDiskVectorEnv(VectorEnv):
             )
         out = self._batch.outputs()
         resetting = self._ended if mode == AutoresetMode.NEXT_STEP else self._none
-        bad = self._batch.step(actions, resetting, out)
+        bad = self._batch.step(actions, out)
         if bad >= 0:
             raise ValueError(f"actions must be finite numbers, got {actions[bad]!r} for sub-environment {bad}")
         if resetting.any():

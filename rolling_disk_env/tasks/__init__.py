@@ -18,8 +18,9 @@ The recipe for a new task ``"name"``:
 
 from rolling_disk_env.tasks.base import Task
 from rolling_disk_env.tasks.circle import CircleTask
+from rolling_disk_env.tasks.goto import GotoTask
 from rolling_disk_env.tasks.upright import UprightTask
 
-TASKS: dict[str, type[Task]] = {task.name: task for task in (UprightTask, CircleTask)}
+TASKS: dict[str, type[Task]] = {task.name: task for task in (UprightTask, CircleTask, GotoTask)}
 
-__all__ = ["TASKS", "CircleTask", "Task", "UprightTask"]
+__all__ = ["TASKS", "CircleTask", "GotoTask", "Task", "UprightTask"]
