@@ -157,7 +157,8 @@ def _function_source(name: str, equations: Equations) -> str:
         *(f"{symbol} = {_PRINTER.doprint(expr)}" for symbol, expr in replacements),
         f"return ({', '.join(_PRINTER.doprint(expr) for expr in reduced)},)",
     ]
-    lines = ["@inline_kernel", _signature(name, argument), f'    """{equations.doc}"""', *(f"    {line}" for line in body)]
+    signature = _signature(name, argument)
+    lines = ["@inline_kernel", signature, f'    """{equations.doc}"""', *(f"    {line}" for line in body)]
     return "\n".join(lines) + "\n"
 
 
@@ -342,7 +343,15 @@ def generate_kernels() -> str:
         for tableau in TABLEAUS:
             functions.append(_step_source(model, generated[f"{model}_derivative"], tableau))
     header = _HEADER.format(title="The rolling-disk model for one disk.", source="``rolling_disk_env/derivation.py``")
-    imports = "from math import sqrt\n\nfrom rolling_disk_env.jit import inline_kernel\nfrom rolling_disk_env.trig import sincos\n"
+    imports = "\n".join(
+        [
+            "from math import sqrt",
+            "",
+            "from rolling_disk_env.jit import inline_kernel",
+            "from rolling_disk_env.trig import sincos",
+            "",
+        ]
+    )
     return header + "\n" + imports + "\n\n" + "\n\n".join(functions)
 
 

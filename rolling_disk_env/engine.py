@@ -124,7 +124,8 @@ def contact_lanes(lanes, start, stop):
     lanes (rows from CONTACT)."""
     for i in range(start, stop):
         x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        values = contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
+        tau_spin, tau_steer = lanes[TAU_SPIN, i], lanes[TAU_STEER, i]
+        values = contact(x, tau_spin, tau_steer, lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
         lanes[CONTACT, i] = values[0]
         lanes[CONTACT + 1, i] = values[1]
         lanes[CONTACT + 2, i] = values[2]
