@@ -19,11 +19,13 @@ from rolling_disk_env.dynamics import (
     lean_derivative,
     lean_jacobians,
     lean_state,
+    normal_force,
+    required_friction,
     state_derivative,
     steady_motion,
     steady_motion_eigenvalues,
 )
-from rolling_disk_env.integrators import METHODS, simulate
+from rolling_disk_env.integrators import METHODS, RollingContactError, simulate
 
 ENV_ID = "RollingDisk-v0"
 """The general id: task ``"upright"`` by default, every keyword argument accepted (``task=`` included)."""
@@ -75,6 +77,7 @@ __all__ = [
     "TASK_IDS",
     "DiskParams",
     "OutOfDomainError",
+    "RollingContactError",
     "RollingDiskEnv",
     "RollingDiskVectorEnv",
     "contact_force",
@@ -82,6 +85,8 @@ __all__ = [
     "lean_derivative",
     "lean_jacobians",
     "lean_state",
+    "normal_force",
+    "required_friction",
     "simulate",
     "state_derivative",
     "steady_motion",
