@@ -22,6 +22,7 @@ Two modules are written, both plain Python on floats (``math``), readable next t
 from __future__ import annotations
 
 import argparse
+import functools
 import inspect
 from dataclasses import dataclass
 from fractions import Fraction
@@ -70,6 +71,11 @@ class Equations:
     state: tuple[sp.Symbol, ...]
     outputs: list[sp.Expr]
     doc: str
+
+    @functools.cached_property
+    def reduced(self) -> tuple[list[tuple[sp.Symbol, sp.Expr]], list[sp.Expr]]:
+        """The outputs in sin and cos of theta and psi, after common-subexpression elimination."""
+        return sp.cse([_in_sin_cos(expr) for expr in self.outputs], optimizations="basic")
 
 
 def equations() -> dict[str, Equations]:
@@ -130,10 +136,6 @@ def _signature(name: str, state: str, before: tuple[str, ...] = (), after: tuple
     return f"def {name}({', '.join([state, *before, 'tau_spin', 'tau_steer', 'm', 'g', 'r', *after])}):"
 
 
-def _reduce(outputs: list[sp.Expr]) -> tuple[list[tuple[sp.Symbol, sp.Expr]], list[sp.Expr]]:
-    return sp.cse([_in_sin_cos(expr) for expr in outputs], optimizations="basic")
-
-
 def _trig_lines(used: set, names: dict | None = None) -> list[str]:
     """``sin_theta, cos_theta = sincos(theta)`` (and psi's) for the angles whose sine or cosine is ``used``;
     ``names`` renames the symbols (a Runge-Kutta stage's)."""
@@ -148,7 +150,7 @@ def _trig_lines(used: set, names: dict | None = None) -> list[str]:
 
 def _function_source(name: str, equations: Equations) -> str:
     """One function of the model: unpacks the state, evaluates the outputs, returns them as a tuple."""
-    replacements, reduced = _reduce(equations.outputs)
+    replacements, reduced = equations.reduced
     used = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in replacements))
     argument = "x" if len(equations.state) == 8 else "y"
     body = [
@@ -253,7 +255,7 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
     """
     state = list(equations.state)
     velocities = set(state[-3:])
-    replacements, reduced = _reduce(equations.outputs)
+    replacements, reduced = equations.reduced
     once = []  # what depends on the constants and the torques only: computed once a step
     for symbol, expr in replacements:
         if expr.free_symbols <= {*_CONSTANTS, *_TORQUES, *once}:

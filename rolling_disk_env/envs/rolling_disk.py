@@ -63,8 +63,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Rewards
 
-    A weighted sum of named terms, each in [-1, 1] per step, reported in ``info["rewards"]``; the weights are the
-    task option ``reward_weights``. ``upright``: ``alive`` +1, ``lean`` -(theta / 0.5)^2, ``speed``
+    A weighted sum of named terms, each in [-1, 1] per step, reported flat in ``info["reward_<term>"]`` (as
+    Gymnasium's MuJoCo envs report ``reward_ctrl``), so that batching wrappers stack them; the weights are the task
+    option ``reward_weights``. ``upright``: ``alive`` +1, ``lean`` -min((theta / 0.5)^2, 1), ``speed``
     -min(((dphi - dphi*) / dphi*)^2, 1), ``effort`` -mean(action^2); weights 1, 1, 0.5, 0.1. ``circle``: ``alive``
     +1, ``radial`` -min(e_r^2, 1) (e_r in m), ``speed`` as above, ``effort``; weights 1, 1, 0.3, 0.1.
 
@@ -78,15 +79,25 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Episode End
 
-    Termination: the disk has fallen, |theta| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle``;
-    the model itself holds up to pi/2 - 0.01), or, which the default settings never do, the integrator left the
-    model's domain; ``info["termination"]`` says which (``"fallen"`` or ``"out_of_domain"``). Truncation: after
-    ``max_episode_steps`` (500 steps of 0.02 s, 10 s), by the ``TimeLimit`` wrapper of ``gymnasium.make``.
+    Termination, with the reason in ``info["termination"]``:
 
-    ``info`` holds ``"state"`` (the 8-vector, float64), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2 in
-    N), ``"rewards"`` and ``"is_success"``: whether the episode counts as a success if
-    it ends at this step (``upright``: not fallen; ``circle``: not fallen and a mean radial error over the last half
-    of the episode of at most 0.25 m).
+    | reason | when |
+    |--------|------|
+    | `"fallen"` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle``) |
+    | `"lifted_off"` | the normal force N vanished: rolling on the plane is over (checked at every step) |
+    | `"slipped"` | with ``friction_coefficient`` mu set: the contact needs more, \\|lambda\\| / N > mu |
+    | `"out_of_domain"` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
+    | `"substep_limit"` | ``"dopri5"`` did not finish the period in 10000 steps |
+
+    The contact is checked at the end of each control period. Truncation: after ``max_episode_steps`` (500 steps of
+    0.02 s, 10 s), by the ``TimeLimit`` wrapper of ``gymnasium.make``.
+
+    ``info`` holds ``"state"`` (the 8-vector, float64), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2: the
+    horizontal ground reaction in N), ``"normal_force"`` (N, the vertical one), ``"required_friction"`` (|lambda| /
+    N, the friction coefficient a real contact needs to roll so), the ``"reward_<term>"`` keys (after a step) and
+    ``"is_success"``: whether the episode counts as a success *if it ended at this step*, so True from the first
+    step for a disk that has not fallen (``upright``: not fallen; ``circle``: not fallen and a mean radial error over
+    the last half of the episode of at most 0.25 m). SB3's ``Monitor`` and ``EvalCallback`` read it at the end.
 
     ## Arguments
 
@@ -102,8 +113,10 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     | `task` | str or Task | `"upright"` | `"upright"` or `"circle"` (or a `Task` instance) |
     | `actuators` | tuple of str | `("spin", "steer")` | enabled torques; `()` gives a passive disk |
     | `dt` | float | `0.02` | control period, s (also `1 / render_fps`) |
-    | `integrator` | str | `"rk4"` | `"euler"`, `"symplectic_euler"` or `"rk4"` |
-    | `substeps` | int | `1` | integrator steps per control period |
+    | `integrator` | str | `"rk4"` | `"euler"`, `"symplectic_euler"`, `"rk4"` or `"dopri5"` (error-controlled) |
+    | `substeps` | int | `1` | fixed-step integrator steps per control period |
+    | `rtol`, `atol` | float | `1e-6`, `1e-8` | tolerances of `"dopri5"` (relative, absolute) |
+    | `friction_coefficient` | float | `None` | mu of the contact: the episode ends `"slipped"` when it falls short |
     | `max_spin_torque` | float | `5.0` | torque of action +1 on spin, N m |
     | `max_steer_torque` | float | `10.0` | torque of action +1 on steer, N m |
     | `params` | DiskParams | `DiskParams()` | mass 5 kg, radius 1 m, gravity 9.81 m/s^2 |
@@ -114,7 +127,8 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Version History
 
-    * v0: initial version.
+    * v0: initial version; the compiled engine (numba) computes the same transitions as before to within the
+      rounding of its sine and cosine; flat ``reward_<term>`` info keys, the contact limits and ``"dopri5"`` added.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
