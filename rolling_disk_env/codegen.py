@@ -478,9 +478,9 @@ _ADVANCE = {
     dt = config[PERIOD] / substeps
     for _ in range(substeps):
         for i in range(start, stop):
+            x = {state_lanes}
             x = kernels.state_{method}_step(
-                {state_lanes}, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
-                lanes[RADIUS, i]
+                x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
             )
 {store}""",
 }
@@ -522,7 +522,7 @@ def generate_steps(task) -> str:
         steps.append(_fill(template, {**fields, "{success}": success, "{method}": tableau.name}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: one disk, or a batch, through a control period.",
-        source=f"``{module.__name__.replace('.', '/')}.py`` or the template in ``rolling_disk_env/codegen.py``",
+        source=f"``{module.__name__.replace('.', '/')}.py`` or the template in\n``rolling_disk_env/codegen.py``",
     )
     imports = "\n".join(
         [
