@@ -1,169 +1,142 @@
-"""Train an agent on RollingDisk-v0 with Stable-Baselines3 (the project's main job).
+"""Train a Stable-Baselines3 agent on a task of rolling-disk-env (the project's main job).
 
-    python train.py                                  # PPO on task "upright", the README's main job
-    python train.py --task circle --algo sac --timesteps 200000 --seed 3
+Hyperparameters come from agents/hyperparams/<algo>.yml, rl-baselines3-zoo's format, in the block of the task's
+env id (RollingDiskUpright-v0, RollingDiskCircle-v0). The run directory (--out) receives model.zip, best_model.zip
+(the best periodic evaluation), vecnormalize.pkl, config.yml (the hyperparameters used), command.txt, TensorBoard
+logs in tb/ (tensorboard --logdir runs/) and results.md: mean +- std return and success rate over seeded
+evaluation episodes of the trained agent, the passive disk and the task's classical baseline. Ctrl-C stops
+training and still saves and evaluates the model.
 
-Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (rl-baselines3-zoo's format). The run directory
-(``--out``, default ``runs/<task>_<algo>_<seed>``) receives ``model.zip``, ``best_model.zip`` (EvalCallback),
-``vecnormalize.pkl``, ``config.yml`` (the hyperparameters used), ``command.txt``, TensorBoard logs in ``tb/`` and
-``results.md``: mean +- std return and success rate over seeded evaluation episodes for the trained agent, the
-passive disk and the classical baseline. Ctrl-C stops training and still saves and evaluates the model.
+examples:
+  python train.py                                   # PPO on task upright: the README's main job
+  python train.py --task circle                     # PPO on task circle
+  python train.py --task circle --algo sac --timesteps 200000 --seed 3 --out runs/circle_sac
+  python train.py --verbose 1                       # SB3's training logs and every evaluation
+  python -m agents.evaluate --model runs/upright_ppo_0/best_model.zip --render human   # watch the result
 """
 
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
-import time
-import warnings
 from pathlib import Path
 
-import torch
-import yaml
-from stable_baselines3.common.callbacks import EvalCallback
-from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-from tqdm import TqdmExperimentalWarning
-
-import rolling_disk_env as rd
-from agents.baselines import BASELINES
-from agents.evaluate import ALGORITHMS, EVAL_SEED, NormalizedPolicy, PassiveAgent, evaluate
-from rolling_disk_env.tasks import TASKS
-
-ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU}
+# Only the standard library is imported before the arguments are parsed: --help and argument errors answer at
+# once, and torch, SB3 and the package load (seconds) only for a run.
+TASKS = ("upright", "circle")
+"""The tasks with hyperparameters, keys of ``rolling_disk_env.TASK_IDS`` (tests/test_train_cli.py checks both)."""
+ALGORITHMS = ("ppo", "sac", "td3")
+"""The algorithms, the keys of ``agents.evaluate.ALGORITHMS`` (checked likewise)."""
 HYPERPARAMS = Path(__file__).parent / "agents" / "hyperparams"
 
 
-def config_key(task: str) -> str:
-    """The YAML key of a task: the env id for the default task, ``<env id>-<task>`` otherwise."""
-    return rd.ENV_ID if task == "upright" else f"{rd.ENV_ID}-{task}"
-
-
-def load_hyperparams(path: Path, task: str) -> dict:
-    """The block of ``task`` in a zoo-format YAML file, with policy_kwargs and schedules turned into objects."""
-    with open(path) as handle:
-        blocks = yaml.safe_load(handle)
-    key = config_key(task)
-    if key not in blocks:
-        raise SystemExit(f"{path} has no block {key!r} for task {task!r}; blocks: {sorted(blocks)}")
-    return dict(blocks[key])
-
-
-def algorithm_kwargs(hyperparams: dict) -> dict:
-    """SB3 keyword arguments from a zoo block (without the keys train.py handles itself)."""
-    kwargs = {
-        k: v for k, v in hyperparams.items() if k not in {"n_timesteps", "policy", "n_envs", "normalize", "env_kwargs"}
-    }
-    policy_kwargs = dict(kwargs.pop("policy_kwargs", {}) or {})
-    if "activation_fn" in policy_kwargs:
-        name = policy_kwargs["activation_fn"]
-        if name not in ACTIVATIONS:
-            raise SystemExit(f"unknown activation_fn {name!r}; choose from {sorted(ACTIVATIONS)}")
-        policy_kwargs["activation_fn"] = ACTIVATIONS[name]
-    if policy_kwargs:
-        kwargs["policy_kwargs"] = policy_kwargs
-    for name in ("learning_rate", "clip_range"):
-        value = kwargs.get(name)
-        if isinstance(value, str) and value.startswith("lin_"):
-            start = float(value.removeprefix("lin_"))
-            kwargs[name] = lambda progress, start=start: progress * start
-    return kwargs
-
-
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description="Train an SB3 agent on RollingDisk-v0.")
-    parser.add_argument("--task", choices=sorted(TASKS), default="upright")
-    parser.add_argument("--algo", choices=sorted(ALGORITHMS), default="ppo")
-    parser.add_argument("--timesteps", type=int, help="total environment steps (default: the config's)")
-    parser.add_argument("--n-envs", type=int, help="parallel environments (default: the config's)")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, help="run directory (default: runs/<task>_<algo>_<seed>)")
-    parser.add_argument("--config", type=Path, help="hyperparameter YAML (default: agents/hyperparams/<algo>.yml)")
-    parser.add_argument("--eval-episodes", type=int, default=100, help="seeded episodes in the final table")
-    parser.add_argument("--threads", type=int, default=1, help="torch CPU threads (1 is fastest on 2 cores)")
-    return parser.parse_args(argv)
-
-
-def main(argv: list[str] | None = None) -> dict:
-    args = parse_args(argv)
-    # SB3's progress bar uses tqdm's rich front end, which warns on every run that it is experimental.
-    warnings.filterwarnings("ignore", category=TqdmExperimentalWarning)
-    torch.set_num_threads(args.threads)
-    out = args.out or Path("runs") / f"{args.task}_{args.algo}_{args.seed}"
-    out.mkdir(parents=True, exist_ok=True)
-    config_path = args.config or HYPERPARAMS / f"{args.algo}.yml"
-    hyperparams = load_hyperparams(config_path, args.task)
-    timesteps = args.timesteps or int(hyperparams["n_timesteps"])
-    n_envs = args.n_envs or int(hyperparams.get("n_envs", 1))
-    env_kwargs = {**hyperparams.get("env_kwargs", {}), "task": args.task}
-    (out / "command.txt").write_text(shlex.join([sys.executable, *sys.argv]) + "\n")
-    (out / "algo.txt").write_text(args.algo + "\n")
-    (out / "config.yml").write_text(yaml.safe_dump({config_key(args.task): hyperparams}, sort_keys=False))
-
-    env = make_vec_env(rd.ENV_ID, n_envs=n_envs, seed=args.seed, env_kwargs=env_kwargs, vec_env_cls=DummyVecEnv)
-    eval_env = make_vec_env(rd.ENV_ID, n_envs=1, seed=args.seed + 1000, env_kwargs=env_kwargs)
-    normalize = bool(hyperparams.get("normalize", False))
-    if normalize:
-        gamma = hyperparams.get("gamma", 0.99)
-        env = VecNormalize(env, gamma=gamma)
-        eval_env = VecNormalize(eval_env, gamma=gamma, training=False, norm_reward=False)
-
-    algorithm = ALGORITHMS[args.algo]
-    model = algorithm(
-        hyperparams.get("policy", "MlpPolicy"),
-        env,
-        seed=args.seed,
-        device="cpu",
-        verbose=0,
-        tensorboard_log=str(out / "tb"),
-        **algorithm_kwargs(hyperparams),
-    )
-    callback = EvalCallback(
-        eval_env,
-        best_model_save_path=str(out),
-        log_path=str(out / "eval"),
-        eval_freq=max(1, 10_000 // n_envs),
-        n_eval_episodes=10,
-        deterministic=True,
-        verbose=0,
-    )
-    start = time.perf_counter()
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
     try:
-        model.learn(total_timesteps=timesteps, callback=callback, progress_bar=True, tb_log_name=args.algo)
-    except KeyboardInterrupt:
-        print("\ninterrupted: saving the model trained so far")
-    minutes = (time.perf_counter() - start) / 60
-    model.save(out / "model.zip")
-    if normalize:
-        env.save(str(out / "vecnormalize.pkl"))
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
 
-    trained = NormalizedPolicy(model, env if normalize else None)
-    results = [
-        evaluate(
-            trained, f"{args.algo.upper()} (trained, {model.num_timesteps} steps)", args.eval_episodes, **env_kwargs
-        ),
-        evaluate(PassiveAgent(), "passive disk (zero torque)", args.eval_episodes, **env_kwargs),
-        evaluate(
-            BASELINES[args.task](**env_kwargs),
-            f"baseline: {BASELINES[args.task].__name__}",
-            args.eval_episodes,
-            **env_kwargs,
-        ),
-    ]
-    lines = [
-        f"# {args.task}: {args.algo.upper()}, seed {args.seed}, {model.num_timesteps} steps in {minutes:.1f} min",
-        "",
-        f"{args.eval_episodes} evaluation episodes (seeds {EVAL_SEED} to {EVAL_SEED + args.eval_episodes - 1}),"
-        " deterministic actions.",
-        "",
-        "| agent | return (mean +- std) | success |",
-        "|---|---|---|",
-        *("| " + " | ".join(result.row()) + " |" for result in results),
-    ]
-    (out / "results.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
-    return {result.name: result for result in results}
+
+def seed(text: str) -> int:
+    """argparse type: an integer >= 0 (numpy's seeds)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
+def existing_file(text: str) -> Path:
+    """argparse type: the path of an existing file."""
+    path = Path(text)
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"no such file: {text}")
+    return path
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the docstring's layout and shows each option's default, when it has one."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.default not in (None, argparse.SUPPRESS) and "%(default)" not in action.help:
+            return f"{action.help} (default: %(default)s)"
+        return action.help
+
+
+def parser() -> argparse.ArgumentParser:
+    description, _, examples = __doc__.partition("examples:")
+    parser = argparse.ArgumentParser(
+        prog="python train.py", description=description, epilog="examples:" + examples, formatter_class=HelpFormatter
+    )
+    parser.add_argument("--task", choices=TASKS, default="upright", help="the task")
+    parser.add_argument("--algo", choices=ALGORITHMS, default="ppo", help="the SB3 algorithm")
+    parser.add_argument(
+        "--timesteps", type=positive_int, metavar="N", help="environment steps (default: the config's n_timesteps)"
+    )
+    parser.add_argument(
+        "--n-envs", type=positive_int, metavar="N", help="training environments (default: the config's n_envs)"
+    )
+    parser.add_argument("--seed", type=seed, default=0, help="seed of the model and the training environments")
+    parser.add_argument("--out", type=Path, metavar="DIR", help="run directory (default: runs/<task>_<algo>_<seed>)")
+    parser.add_argument(
+        "--config",
+        type=existing_file,
+        metavar="FILE",
+        help="hyperparameters, zoo format (default: agents/hyperparams/<algo>.yml)",
+    )
+    parser.add_argument(
+        "--eval-episodes", type=positive_int, default=100, metavar="N", help="seeded episodes of the final table"
+    )
+    parser.add_argument("--threads", type=positive_int, default=1, metavar="N", help="torch CPU threads")
+    parser.add_argument(
+        "--verbose", type=int, choices=(0, 1, 2), default=0, help="SB3's output: 1 training logs, 2 debug"
+    )
+    return parser
+
+
+def main(argv: list[str] | None = None) -> list:
+    """Parses ``argv`` (default: the command line), trains, prints the results table; returns the results
+    (``agents.evaluate.Result``: trained agent, passive disk, baseline)."""
+    arguments = parser()
+    args = arguments.parse_args(argv)
+
+    import rolling_disk_env as rd
+    from agents.training import ConfigError, load_hyperparams, train
+
+    out = args.out or Path("runs") / f"{args.task}_{args.algo}_{args.seed}"
+    config = args.config or HYPERPARAMS / f"{args.algo}.yml"
+    try:
+        hyperparams = load_hyperparams(config, rd.TASK_IDS[args.task])
+    except (OSError, ConfigError) as error:
+        sys.exit(f"train.py: error: {error}")
+    print(f"run directory: {out}", flush=True)
+    try:
+        results = train(
+            args.task,
+            args.algo,
+            hyperparams,
+            out,
+            timesteps=args.timesteps,
+            n_envs=args.n_envs,
+            seed=args.seed,
+            eval_episodes=args.eval_episodes,
+            threads=args.threads,
+            verbose=args.verbose,
+        )
+    except ConfigError as error:
+        sys.exit(f"train.py: error: {config}: {error}")
+    except KeyboardInterrupt:
+        print(f"\ninterrupted; run directory: {out}", file=sys.stderr)
+        sys.exit(130)
+    print((out / "results.md").read_text(), end="")
+    print(f"run directory: {out}")
+    return results
 
 
 if __name__ == "__main__":

@@ -1,20 +1,27 @@
-"""Evaluate agents on RollingDisk-v0: a table of return and success, a video of one episode, and plots.
+"""Evaluate agents on rolling-disk-env: a table of return and success, a video of one episode, and plots.
 
-``python -m agents.evaluate --task upright --model runs/upright_ppo_0/best_model.zip`` (or ``--agent lqr`` or
-``--agent passive``) runs seeded episodes on the native vector env, prints mean +- std return and success rate, and
-with ``--out DIR`` writes ``episode.gif`` (the env's renderer) and ``episode.png`` (lean, spin rate, torques and
-the track seen from above against the target).
+Seeded episodes (seeds from 10000) run at once on the native vector env; the table gives mean +- std return and the
+success rate. --out DIR writes episode.gif (the env's renderer) and episode.png (lean, rates, torques and the track
+seen from above against the target) of the first episode; --render human shows it live.
+
+examples:
+  python -m agents.evaluate --task circle --agent baseline --out eval/   # the task's classical controller
+  python -m agents.evaluate --agent passive --episodes 20                 # zero torque, task upright
+  python -m agents.evaluate --model runs/upright_ppo_0/best_model.zip --render human
+A model's task and env keyword arguments come from the config.yml that train.py saved beside it.
 """
 
 from __future__ import annotations
 
 import argparse
 import pickle
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import yaml
 from stable_baselines3 import PPO, SAC, TD3
 
 import rolling_disk_env as rd
@@ -24,6 +31,12 @@ ALGORITHMS = {"ppo": PPO, "sac": SAC, "td3": TD3}
 """The SB3 algorithms train.py offers, by its --algo name."""
 EVAL_SEED = 10_000
 """Evaluation episodes use seeds from here on: training uses others."""
+AGENTS = {
+    "baseline": "the task's classical controller",
+    "lqr": "an alias of baseline",
+    "passive": "zero torque",
+}
+"""The agents evaluate's CLI names (a trained model is given by its path, ``--model``)."""
 
 
 @dataclass(frozen=True)
@@ -40,6 +53,12 @@ class Result:
             f"{self.returns.mean():.1f} +- {self.returns.std():.1f}",
             f"{100 * self.successes.mean():.0f}%",
         ]
+
+
+def results_table(results: list[Result]) -> str:
+    """A markdown table of the results: agent, mean +- std return, success rate."""
+    rows = ["| " + " | ".join(result.row()) + " |" for result in results]
+    return "\n".join(["| agent | return (mean +- std) | success |", "|---|---|---|", *rows])
 
 
 class PassiveAgent:
@@ -101,20 +120,25 @@ def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, **env
     return Result(name, returns, successes)
 
 
-def record_episode(agent, seed: int = EVAL_SEED, **env_kwargs) -> dict:
-    """One episode on the single env with frames: times, states, torques, frames and the goal."""
-    env = gym.make(rd.ENV_ID, render_mode="rgb_array", **env_kwargs)
+def record_episode(agent, seed: int = EVAL_SEED, render_mode: str = "rgb_array", **env_kwargs) -> dict:
+    """One episode on the single env: times, states, torques, the goal, the task and, with ``render_mode``
+    ``"rgb_array"``, the frames (``"human"`` shows the episode in a window instead, at the env's pace)."""
+    env = gym.make(rd.ENV_ID, render_mode=render_mode, **env_kwargs)
     observation, info = env.reset(seed=seed)
     unwrapped = env.unwrapped
     limits = np.array(unwrapped.config.max_torque)
-    states, torques, frames = [info["state"]], [np.zeros(2)], [env.render()]
+    recording = render_mode == "rgb_array"
+    states, torques, frames = [info["state"]], [np.zeros(2)], [env.render()] if recording else []
+    episode_return = 0.0
     terminated = truncated = False
     while not (terminated or truncated):
         action, _ = agent.predict(observation, deterministic=True)
-        observation, _, terminated, truncated, info = env.step(action)
+        observation, reward, terminated, truncated, info = env.step(action)
+        episode_return += reward
         states.append(info["state"])
         torques.append(np.clip(action, -1, 1) * limits)
-        frames.append(env.render())
+        if recording:
+            frames.append(env.render())
     env.close()
     times = np.arange(len(states)) * unwrapped.dt
     return {
@@ -124,6 +148,8 @@ def record_episode(agent, seed: int = EVAL_SEED, **env_kwargs) -> dict:
         "frames": frames,
         "goal": unwrapped.goal,
         "task": unwrapped.task,
+        "return": episode_return,
+        "success": bool(info["is_success"]),
     }
 
 
@@ -137,7 +163,18 @@ def write_gif(frames: list[np.ndarray], path: Path, fps: int = 25, every: int = 
 
 
 def plot_episode(episode: dict, title: str, path: Path) -> Path:
-    """Lean theta(t), spin rate, torques, and the track from above against the target."""
+    """Writes :func:`episode_figure` to ``path`` (PNG)."""
+    import matplotlib.pyplot as plt
+
+    fig = episode_figure(episode, title)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def episode_figure(episode: dict, title: str):
+    """A matplotlib figure of an episode: lean theta(t), rates, torques, and the track from above against the
+    target."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -176,42 +213,132 @@ def plot_episode(episode: dict, title: str, path: Path) -> Path:
             color="tab:green",
             label="target circle",
         )
-    ax.set(xlabel="x (m)", ylabel="y (m)", title="track from above", aspect="equal")
+    # Equal scales on x and y, but the panel keeps its size: the data limits grow instead (a straight track would
+    # otherwise squeeze the panel into a strip).
+    ax.set(xlabel="x (m)", ylabel="y (m)", title="track from above")
+    ax.set_aspect("equal", adjustable="datalim")
     ax.legend(fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return fig
+
+
+def make_agent(name: str, task: str, **env_kwargs):
+    """An agent of :data:`AGENTS` by name for ``task`` (``"baseline"`` and ``"lqr"``: :data:`BASELINES`)."""
+    if name == "passive":
+        return PassiveAgent()
+    if name in ("baseline", "lqr"):
+        return BASELINES[task](task=task, **env_kwargs)
+    raise ValueError(f"unknown agent {name!r}; agents: {sorted(AGENTS)}")
+
+
+def run_settings(model: Path) -> tuple[str, dict] | None:
+    """The task and env keyword arguments of the run a saved model comes from, read from ``config.yml`` in its
+    folder (train.py's, keyed by the task's env id); None if there is none."""
+    path = model.parent / "config.yml"
+    if not path.exists():
+        return None
+    blocks = yaml.safe_load(path.read_text())
+    if not (isinstance(blocks, dict) and len(blocks) == 1):
+        raise ValueError(f"{path} must hold one hyperparameter block, keyed by env id")
+    ((env_id, block),) = blocks.items()
+    env_kwargs = dict((block or {}).get("env_kwargs") or {})
+    tasks = {env_id: task for task, env_id in rd.TASK_IDS.items()}
+    task = env_kwargs.pop("task", tasks.get(env_id, "upright"))
+    return task, env_kwargs
+
+
+def _agent_name(value: str) -> str:
+    if value not in AGENTS:
+        raise argparse.ArgumentTypeError(
+            f"unknown agent {value!r}: choose {', '.join(sorted(AGENTS))}, or give a trained model with --model PATH"
+        )
+    return value
+
+
+def _integer(minimum: int):
+    """argparse type: an integer >= ``minimum``."""
+
+    def parse(value: str) -> int:
+        try:
+            number = int(value)
+        except ValueError:
+            number = None
+        if number is None or number < minimum:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {minimum}, got {value!r}")
+        return number
+
+    return parse
+
+
+def _model_file(value: str) -> Path:
+    path = Path(value)
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"no such model file: {value}")
     return path
 
 
-def make_agent(name_or_path: str, task: str, **env_kwargs):
-    """``"passive"``, ``"lqr"`` (the task's baseline) or the path of a saved model."""
-    if name_or_path == "passive":
-        return PassiveAgent()
-    if name_or_path == "lqr":
-        return BASELINES[task](task=task, **env_kwargs)
-    return load_agent(Path(name_or_path))
+class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the docstring's layout and shows each option's default, when it has one."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.default not in (None, False, argparse.SUPPRESS) and "%(default)" not in action.help:
+            return f"{action.help} (default: %(default)s)"
+        return action.help
 
 
 def main(argv: list[str] | None = None) -> Result:
-    parser = argparse.ArgumentParser(description="Evaluate an agent on RollingDisk-v0.")
-    parser.add_argument("--task", choices=sorted(BASELINES), default="upright")
-    parser.add_argument("--agent", default="lqr", help='"lqr", "passive" or a model .zip (see --model)')
-    parser.add_argument("--model", help="a saved model (.zip); its folder's vecnormalize.pkl is used")
-    parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=EVAL_SEED)
-    parser.add_argument("--out", type=Path, help="folder for episode.gif and episode.png")
+    description, _, epilog = __doc__.partition("examples:")
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluate",
+        description=description,
+        epilog="examples:" + epilog,
+        formatter_class=_HelpFormatter,
+    )
+    parser.add_argument("--task", choices=sorted(rd.TASK_IDS), help="the task (default: the model's, else upright)")
+    agents = ", ".join(f"{name} ({meaning})" for name, meaning in AGENTS.items())
+    parser.add_argument("--agent", type=_agent_name, metavar="NAME", help=f"{agents} (default: baseline)")
+    parser.add_argument("--model", type=_model_file, metavar="PATH", help="a model .zip saved by train.py")
+    parser.add_argument("--episodes", type=_integer(1), default=100, metavar="N", help="seeded evaluation episodes")
+    parser.add_argument("--seed", type=_integer(0), default=EVAL_SEED, metavar="S", help="the first episode's seed")
+    parser.add_argument("--out", type=Path, metavar="DIR", help="folder for episode.gif and episode.png")
+    parser.add_argument("--render", choices=["human"], help="show the first episode live in a window")
     args = parser.parse_args(argv)
-    agent = make_agent(args.model or args.agent, args.task)
-    name = args.model or args.agent
-    result = evaluate(agent, name, args.episodes, args.seed, task=args.task)
-    print("| agent | return (mean +- std) | success |\n|---|---|---|\n| " + " | ".join(result.row()) + " |")
+    if args.model and args.agent:
+        parser.error("give either --agent or --model")
+    env_kwargs = {}
+    task = args.task or "upright"
+    if args.model:
+        settings = run_settings(args.model)
+        if settings is not None:
+            task, env_kwargs = settings
+            if args.task not in (None, task):
+                parser.error(
+                    f"--task {args.task} contradicts the model's run: {args.model.parent / 'config.yml'} "
+                    f"trains task {task!r}"
+                )
+        agent, name = load_agent(args.model), str(args.model)
+    else:
+        name = args.agent or "baseline"
+        if name in ("baseline", "lqr") and task not in BASELINES:
+            parser.error(f"task {task!r} has no classical baseline; tasks with one: {', '.join(BASELINES)}")
+        agent = make_agent(name, task, **env_kwargs)
+        name = f"baseline: {type(agent).__name__}" if name in ("baseline", "lqr") else name
+    result = evaluate(agent, name, args.episodes, args.seed, task=task, **env_kwargs)
+    print(results_table([result]))
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)
-        episode = record_episode(agent, args.seed, task=args.task)
+        episode = record_episode(agent, args.seed, task=task, **env_kwargs)
         print(f"wrote {write_gif(episode['frames'], args.out / 'episode.gif')}")
-        print(f"wrote {plot_episode(episode, f'{name} on {args.task}, seed {args.seed}', args.out / 'episode.png')}")
+        print(f"wrote {plot_episode(episode, f'{name} on {task}, seed {args.seed}', args.out / 'episode.png')}")
+    if args.render == "human":
+        import pygame
+
+        try:
+            episode = record_episode(agent, args.seed, render_mode="human", task=task, **env_kwargs)
+        except pygame.error as error:
+            sys.exit(f"error: cannot open a window ({error}); without a display, set SDL_VIDEODRIVER=dummy")
+        print(f"watched seed {args.seed}: return {episode['return']:.1f}, success {episode['success']}")
     return result
 
 

@@ -39,6 +39,10 @@ LEGEND = {
     "target": "target circle",
 }
 """What the legend explains, by what it draws beside each line (the target circle's line goes last)."""
+LEGEND_LINE = 14
+"""Pixels per line of the legend."""
+LEGEND_TOP = 30
+"""Pixel row of the legend's top in the upper left corner, below the text line."""
 CAMERA_LAG = 0.5
 """s. The camera's look-at point and distance approach their targets with this time constant."""
 CIRCLE_VIEW = np.array([0.0, -0.9, 0.55]) / math.hypot(0.9, 0.55)
@@ -78,16 +82,29 @@ class Camera:
         return np.stack([u, v], axis=1)
 
 
-def framing_distance(focus: np.ndarray, direction: np.ndarray, points: np.ndarray) -> float:
-    """The smallest distance (m) from ``focus`` along ``direction`` at which a camera looking at ``focus`` sees all
-    ``points`` (n, 3) inside the picture, below the text line (by bisection: farther, the points move inwards)."""
-    near, far = 0.5, 1000.0
-    for _ in range(30):
-        middle = (near + far) / 2
-        u, v = Camera(focus + middle * direction, focus).project(points).T
-        inside = (u.min() >= 10) and (u.max() <= WIDTH - 10) and (v.min() >= 34) and (v.max() <= HEIGHT - 10)
-        near, far = (near, middle) if inside else (middle, far)
-    return far
+def framing(points: np.ndarray, direction: np.ndarray, top: float) -> tuple[np.ndarray, float]:
+    """A look-at point and the smallest distance (m) along ``direction`` from it at which a camera sees all
+    ``points`` (n, 3) in the picture below the pixel row ``top``, with 10 pixels to spare elsewhere, centred there.
+
+    A point at ``x`` right of, ``y`` above and ``z`` beyond the look-at point, seen from ``d`` away, lands
+    ``focal x / (z + d)`` pixels right of the picture's centre (and likewise up): each edge gives the smallest ``d``
+    per point. Starting at the centre of the points' box, the look-at point then moves so that the points' picture
+    is centred (perspective makes the near side look larger), twice.
+    """
+    camera = Camera(direction, np.zeros(3))  # the camera's axes depend on the direction only
+    margin = 10
+    half_width, above, below = WIDTH / 2 - margin, HEIGHT / 2 - top, HEIGHT / 2 - margin
+    focus = (points.min(axis=0) + points.max(axis=0)) / 2
+    for _ in range(3):
+        relative = points - focus
+        x, y, z = relative @ camera.right, relative @ camera.up, relative @ camera.forward
+        needed = camera.focal * np.maximum.reduce([np.abs(x) / half_width, y / above, -y / below]) - z
+        distance = max(0.5, float(needed.max()))
+        u, v = camera.focal * x / (z + distance), -camera.focal * y / (z + distance)  # from the picture's centre
+        shift_u = (u.min() + u.max()) / 2
+        shift_v = (v.min() + v.max()) / 2 - (top - margin) / 2
+        focus = focus + distance / camera.focal * (shift_u * camera.right - shift_v * camera.up)
+    return focus, distance
 
 
 class DiskRenderer:
@@ -130,9 +147,8 @@ class DiskRenderer:
         circle = np.column_stack([centre + radius * np.column_stack([np.cos(angles), np.sin(angles)]), 0 * angles])
         corners = np.array([[dx, dy, dz] for dx in (-r, r) for dy in (-r, r) for dz in (0.0, 2 * r)])
         points = np.vstack([circle, disk * [1, 1, 0] + corners])
-        low, high = points.min(axis=0), points.max(axis=0)
-        focus = np.array([(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, 0.0])
-        return focus, framing_distance(focus, CIRCLE_VIEW, points)
+        # Below the text line and the legend, which sit in the upper left corner of this view.
+        return framing(points, CIRCLE_VIEW, top=LEGEND_TOP + LEGEND_LINE * len(LEGEND) + 12)
 
     def _camera(self, time: float, state, params: DiskParams, goal: dict) -> Camera:
         """The camera of a frame at ``time`` (s): its look-at point and distance follow :meth:`_view` with the lag
@@ -241,11 +257,11 @@ class DiskRenderer:
         upper left)."""
         pygame, surface = self.pygame, self.surface
         entries = list(zip(LEGEND, self.legend_entries(with_target)))
-        line, swatch, pad = 14, 20, 4
+        line, swatch, pad = LEGEND_LINE, 20, 4
         labels = [self.legend_font.render(label, True, TEXT) for _, label in entries]
         width = swatch + 6 + max(label.get_width() for label in labels) + 2 * pad
         height = line * len(entries) + 2 * pad
-        left, top = (8, 30) if with_target else (WIDTH - width - 8, HEIGHT - height - 8)
+        left, top = (8, LEGEND_TOP) if with_target else (WIDTH - width - 8, HEIGHT - height - 8)
         pygame.draw.rect(surface, LEGEND_BACKGROUND, (left, top, width, height))
         pygame.draw.rect(surface, GRID, (left, top, width, height), 1)
         for row, ((kind, _), label) in enumerate(zip(entries, labels)):

@@ -1,31 +1,11 @@
-"""Agents: the LQR baselines, the linearization they use, and a tiny end-to-end training run."""
+"""Agents: the LQR baselines and a tiny end-to-end training run."""
 
 import numpy as np
 import pytest
 
-import rolling_disk_env as rd
-from agents.baselines import CircleLQR, UprightLQR, lean_linearization
+from agents.baselines import CircleLQR, UprightLQR
 from agents.evaluate import PassiveAgent, evaluate, load_agent
 from agents.evaluate import main as evaluate_main
-
-
-@pytest.mark.parametrize("lean_state", [(0.0, 1.0, 0.0, 0.0), (0.2, 2.1, 0.3, 0.5), (-0.6, -1.0, 1.2, -2.0)])
-def test_lqr_linearization_matches_finite_differences_of_state_derivative(lean_state):
-    params = rd.DiskParams(mass=3.0, radius=0.7)
-    a, b = lean_linearization(lean_state, params)
-    x0 = np.array([0.0, 0.0, 0.0, lean_state[0], 0.0, *lean_state[1:]])
-    rows, columns, step = [6, 5, 6, 7], [3, 5, 6, 7], 1e-6
-    for j, column in enumerate(columns):
-        e = np.zeros(8)
-        e[column] = step
-        slope = (rd.state_derivative(x0 + e, params=params) - rd.state_derivative(x0 - e, params=params)) / (2 * step)
-        np.testing.assert_allclose(a[1:, j], slope[rows[1:]], atol=1e-6)
-        assert a[0, j] == (1.0 if column == 6 else 0.0)
-    for j in range(2):
-        u = np.zeros(2)
-        u[j] = step
-        slope = (rd.state_derivative(x0, u, params) - rd.state_derivative(x0, -u, params)) / (2 * step)
-        np.testing.assert_allclose(b[1:, j], slope[rows[1:]], atol=1e-6)
 
 
 def test_upright_lqr_keeps_the_disk_up_where_the_passive_disk_falls():
