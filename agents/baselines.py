@@ -1,7 +1,7 @@
 """Classical controllers for RollingDisk-v0, with the interface of a trained SB3 policy (``predict(obs)``).
 
 * :class:`UprightLQR`: a discrete LQR on the lean model linearized about upright rolling at the task's target spin
-  rate, from the SymPy Jacobians of f and B (``rolling_disk_env/_generated``, ``lean_jacobians``).
+  rate, from the SymPy Jacobians of f and B (``rolling_disk_env.dynamics.lean_jacobians``).
 * :class:`CircleLQR`: the paper's steady circle as the operating point (feedforward: lean, spin and heading rates
   from the circle condition, zero torque) plus LQR feedback on the lean error and the radial and heading errors.
 
@@ -16,16 +16,8 @@ import math
 import numpy as np
 from scipy.linalg import expm, solve_discrete_are
 
-from rolling_disk_env._generated import scalar
-from rolling_disk_env.dynamics import DiskParams, steady_circle
+from rolling_disk_env.dynamics import lean_jacobians, steady_circle
 from rolling_disk_env.envs.config import ACTUATORS, EnvConfig
-
-
-def lean_linearization(lean_state, params: DiskParams) -> tuple[np.ndarray, np.ndarray]:
-    """``A`` (4 x 4) and ``B`` (4 x 2) of the lean model ``y = (theta, dphi, dtheta, dpsi)`` at ``lean_state``, zero
-    torque; ``B``'s columns are ``(tau_spin, tau_steer)`` in N m."""
-    entries = scalar.lean_jacobians(list(lean_state), 0.0, 0.0, *params.constants)
-    return np.array(entries[:16], dtype=float).reshape(4, 4), np.array(entries[16:], dtype=float).reshape(4, 2)
 
 
 def discrete_lqr(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray, dt: float) -> np.ndarray:
@@ -71,7 +63,7 @@ class UprightLQR(_Controller):
         if self.config.task.name != "upright":
             raise ValueError("UprightLQR is for task='upright'")
         dphi = self.config.task.target_spin_rate(self.params.radius)
-        a, b = lean_linearization((0.0, dphi, 0.0, 0.0), self.params)
+        a, b = lean_jacobians((0.0, dphi, 0.0, 0.0), params=self.params)
         q = np.diag(1 / np.array([lean_scale, spin_scale, rate_scale, heading_scale]) ** 2)
         self.gain = discrete_lqr(a, b * self.torque_limits, q, np.eye(2), self.config.dt)
 
@@ -110,7 +102,7 @@ class CircleLQR(_Controller):
         key = round(radius, 3)
         if key not in self.gains:
             theta, dphi, dpsi = steady_circle(radius, self.speed, self.params)
-            a_lean, b_lean = lean_linearization((theta, dphi, 0.0, dpsi), self.params)
+            a_lean, b_lean = lean_jacobians((theta, dphi, 0.0, dpsi), params=self.params)
             a = np.zeros((6, 6))
             b = np.zeros((6, 2))
             a[0, 1] = -self.speed

@@ -56,3 +56,27 @@ def test_numeric_rotation_matrix_equals_the_symbolic_one(derivation):
     symbolic = sp.lambdify((d.phi, d.theta, d.psi), derivation.rotation, "numpy")
     for angles in [(0.3, -0.7, 2.1), (-2.5, 1.2, -0.4)]:
         assert abs(np.asarray(symbolic(*angles), dtype=float) - rotation_matrix(*angles)).max() < 1e-15
+
+
+def test_normal_force_is_newtons_law_for_the_centres_height(derivation):
+    # N = m (g + c3'') with c3 = r cos(theta(t)), differentiated here and given the paper's printed ddtheta: an
+    # independent route to the same expression, whatever the torques.
+    theta_t = sp.Function("theta")(d.t)
+    height = (d.r * sp.cos(theta_t)).diff(d.t, 2)
+    height = height.subs(theta_t.diff(d.t, 2), paper.printed_solution()["ddtheta"])
+    height = height.subs(theta_t.diff(d.t), d.dtheta).subs(theta_t, d.theta)
+    expected = d.m * (d.g + height)
+    assert sp.simplify(sp.expand_trig(derivation.normal_force - expected)) == 0
+    assert derivation.normal_force_input == sp.zeros(1, 2)
+    # A wrong coefficient in ddtheta would show: the comparison is not vacuous.
+    assert sp.simplify(sp.expand_trig(derivation.normal_force - expected * sp.Rational(101, 100))) != 0
+
+
+def test_normal_force_of_a_vertical_disk_without_lean_rate_is_its_weight(derivation):
+    upright = derivation.normal_force.subs({d.theta: 0, d.dtheta: 0})
+    assert sp.simplify(upright - d.m * d.g) == 0
+    # Any spin and heading rate: at theta = 0 they do not reach the centre's height.
+    assert not upright.has(d.dphi, d.dpsi, d.tau_spin, d.tau_steer)
+    # A lean rate lifts the centre's acceleration: N = m (g - r dtheta^2) when vertical.
+    vertical = derivation.normal_force.subs(d.theta, 0)
+    assert sp.simplify(vertical - d.m * (d.g - d.r * d.dtheta**2)) == 0

@@ -91,7 +91,7 @@ def test_case1_vertical_disk_spinning_and_turning_starts_to_lean():
 
 def test_case3_steady_circle_holds_lean_and_radius():
     theta, dpsi = 0.5, 1.0
-    dphi = rd.steady_circle_spin_rate(theta, dpsi)
+    dphi = rd.steady_motion(theta, dpsi)
     x0 = np.array([2.0, 0.0, 0.0, theta, 0.0, dphi, 0.0, dpsi])
     times, trajectory = rd.simulate(x0, 6.0, 0.01, method="dop853", rtol=1e-12, atol=1e-12)
     # Centre speed r (dphi - dpsi sin(theta)) along (sin psi, -cos psi), turning at dpsi: a circle of radius
@@ -106,7 +106,7 @@ def test_case3_steady_circle_holds_lean_and_radius():
 
 def test_circle_condition_is_the_zero_of_ddtheta():
     for theta, dpsi in [(0.2, 0.5), (-0.4, 2.0), (0.9, -1.3)]:
-        dphi = rd.steady_circle_spin_rate(theta, dpsi)
+        dphi = rd.steady_motion(theta, dpsi)
         x = np.array([0, 0, 0, theta, 0, dphi, 0, dpsi])
         assert rd.state_derivative(x)[6] == pytest.approx(0.0, abs=1e-12)
 

@@ -1,4 +1,7 @@
-"""`python -m rolling_disk_env.paper` prints the equations, the comparison, and writes the two figures."""
+"""`python -m rolling_disk_env.paper` prints the equations, the comparison, scenario 2's stability and friction, and
+writes the two figures."""
+
+import re
 
 import numpy as np
 import pytest
@@ -16,6 +19,29 @@ def test_paper_cli_reports_matches_and_writes_both_figures(tmp_path, capsys):
     for name in ("scenario1", "scenario2"):
         image = tmp_path / f"{name}.png"
         assert image.stat().st_size > 20_000
+    _check_scenario2_report(output)
+
+
+def _check_scenario2_report(output: str) -> None:
+    """Scenario 2 is reported stable, with N = m g and the friction of its centre's circle, m v dpsi / (m g)."""
+    _, circle = paper.scenarios()
+    theta, dphi, dpsi = circle.state0[3], circle.state0[5], circle.state0[7]
+    assert "stable: purely imaginary eigenvalues" in output
+    assert "unstable" not in output
+    # The lean's small oscillation about the circle, sqrt(-k) from the characteristic polynomial worked out by hand
+    # (tests/test_steady_motions.py).
+    g, c, s = 9.81, np.cos(theta), np.sin(theta)
+    k = (-5 * dpsi**4 * c**2 * (1 + 2 * c**2) + 12 * dpsi**2 * g * c * np.cos(2 * theta) - 16 * g**2 * s**2) / (
+        15 * dpsi**2 * c**2
+    )
+    frequency = float(re.search(r"oscillates about it at ([\d.]+) rad/s", output).group(1))
+    assert frequency == pytest.approx(np.sqrt(-k), abs=1e-4)
+    normal = float(re.search(r"N = ([\d.]+) N", output).group(1))
+    assert normal == pytest.approx(5.0 * 9.81, abs=1e-4)
+    mu = float(re.search(r"mu = \|lambda\| / N = ([\d.]+)", output).group(1))
+    speed = dphi - dpsi * np.sin(theta)  # r = 1 m
+    assert mu == pytest.approx(speed * dpsi / 9.81, abs=1e-4)
+    assert round(mu, 3) == 0.356
 
 
 def test_scenario2_spin_rate_is_the_papers_circle_condition():
