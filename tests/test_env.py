@@ -226,6 +226,19 @@ def test_pickle_round_trip_keeps_the_episode():
     assert a[1] == b[1]
 
 
+def test_pickle_after_render_rebuilds_the_renderer():
+    env = make(task="circle", render_mode="rgb_array")
+    env.reset(seed=4)
+    first = env.render()
+    clone = pickle.loads(pickle.dumps(env))
+    np.testing.assert_array_equal(clone.render(), first)
+
+
+@pytest.mark.parametrize(("dt", "fps"), [(0.02, 50), (1e-300, 1000), (1e3, 1)])
+def test_render_fps_is_one_over_dt_within_what_a_display_can_use(dt, fps):
+    assert rd.RollingDiskEnv(dt=dt).metadata["render_fps"] == fps
+
+
 def test_stable_baselines3_subproc_vec_env_runs():
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import SubprocVecEnv
