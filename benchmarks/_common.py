@@ -1,7 +1,9 @@
-"""Shared by the benchmark scripts: timing with medians, the machine's description, and writing results."""
+"""Shared by the benchmark scripts: the command line, timing with medians, the machine's description, and writing
+results."""
 
 from __future__ import annotations
 
+import argparse
 import os
 import platform
 import statistics
@@ -11,7 +13,29 @@ from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parent.parent
+"""The repository: on the import path, so that the scripts run as ``python benchmarks/<script>.py`` import its
+``agents`` package (the training settings, the baselines)."""
+if str(ROOT) not in sys.path:
+    sys.path.append(str(ROOT))
 RESULTS = Path(__file__).parent / "results"
+"""Where the committed results live, the default of every script's ``--out``."""
+START_LOAD = os.getloadavg()[0]
+"""The machine's 1-minute load average when the script started (above 0.5: another job shared the cores)."""
+
+
+def arguments(doc: str, **extra: dict) -> argparse.Namespace:
+    """The command line of a benchmark script: ``--quick`` (a smoke run in seconds), ``--out DIR`` (default
+    ``benchmarks/results``), plus ``extra`` options (name: ``add_argument`` keywords). ``doc`` is the script's
+    docstring; its first line is the help's description."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a smoke run: small sizes, few repeats, seconds")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="folder for the results (default: %(default)s)")
+    for name, kwargs in extra.items():
+        parser.add_argument(f"--{name}", **kwargs)
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    return args
 
 
 def median_seconds(call: Callable[[], object], number: int, repeat: int = 7) -> float:
@@ -25,15 +49,27 @@ def median_seconds(call: Callable[[], object], number: int, repeat: int = 7) -> 
     return statistics.median(runs)
 
 
+def medians_in_turns(runs: dict[str, Callable[[], float]], repeats: int) -> dict[str, float]:
+    """Calls every run of ``runs`` (each returns the quantity it measured) once per repeat, in turn, so that a slow
+    spell of the shared machine hits all of them alike; the median of each."""
+    samples = {name: [] for name in runs}
+    for _ in range(repeats):
+        for name, run in runs.items():
+            samples[name].append(run())
+    return {name: statistics.median(values) for name, values in samples.items()}
+
+
 def machine() -> str:
-    """A markdown line naming the machine and the versions that matter to the numbers."""
+    """A markdown line naming the machine, the versions that matter to the numbers, and :data:`START_LOAD`."""
     versions = ", ".join(
-        f"{name} {metadata.version(name)}" for name in ("numpy", "scipy", "gymnasium", "torch") if _installed(name)
+        f"{name} {metadata.version(name)}"
+        for name in ("numpy", "numba", "scipy", "gymnasium", "stable-baselines3", "torch")
+        if _installed(name)
     )
     cpu = platform.processor() or platform.machine()
     return (
         f"Machine: {cpu}, {os.cpu_count()} cores, Python {sys.version.split()[0]}, {versions}; "
-        f"{time.strftime('%Y-%m-%d')}."
+        f"load average {START_LOAD:.1f} at the start; {time.strftime('%Y-%m-%d')}."
     )
 
 
@@ -45,10 +81,10 @@ def _installed(name: str) -> bool:
     return True
 
 
-def write_markdown(name: str, title: str, command: str, sections: list[str]) -> Path:
-    """Writes ``results/<name>.md``: a title, how to reproduce, the machine, then the sections."""
-    RESULTS.mkdir(exist_ok=True)
-    path = RESULTS / f"{name}.md"
+def write_markdown(name: str, title: str, command: str, sections: list[str], out: Path = RESULTS) -> Path:
+    """Writes ``<out>/<name>.md``: a title, how to reproduce, the machine, then the sections."""
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"{name}.md"
     body = [f"# {title}", "", f"Reproduce: `{command}`", "", machine(), "", *sections]
     path.write_text("\n".join(body).rstrip() + "\n")
     print(path.read_text())

@@ -1,121 +1,227 @@
-"""Cost of one integration step: the scalar path (one disk) and the batched numpy path (N disks).
+"""Step cost of the compiled engine: RK4 for one disk and for N disks, and the vectorized sine and cosine.
 
-``python benchmarks/bench_dynamics.py`` writes ``benchmarks/results/dynamics.md``. The scalar RK4 step is set
-against a plain-Python floor, the paper's equations hand-written with an RK4 loop, timed in the same run; the
-generated RK4 step with its stages written out (``Model.scalar_rk4``, what the env uses) against the generic one.
+``python benchmarks/bench_dynamics.py [--quick] [--out DIR]`` writes ``dynamics.md`` to DIR (default
+``benchmarks/results``). Every time is a median of 7 runs (3 with ``--quick``), disks on the paper's scenario 1
+without torques, RK4 steps of 0.01 s on the full model.
+
+1. One disk: ``rd.simulate`` (what a user calls: a Python loop over output steps, with the contact check at each)
+   and one call of ``engine.advance`` on one row (the model API's compiled loop: the call's overhead included).
+2. N disks in one call, per disk-step: ``engine.advance`` on rows (N, 8), the model API's serial loop; the RK4 step
+   of the vector env's kernels on a lanes array (one column per disk: the loop the compiler vectorizes, as in the
+   fused step of ``_generated/<task>.py``, timed here alone in a loop of this script); and the whole fused step of
+   the vector env (``upright``, serial loop: RK4, contact forces, observation, reward, termination) for scale.
+3. ``rolling_disk_env.trig.sincos`` in a compiled loop over N angles against libm's ``math.sin`` and ``math.cos``
+   in the same loop (numba calls libm, which keeps the loop scalar), and numpy's ``np.sin`` and ``np.cos``, per
+   angle (a sine and a cosine), angles uniform in [-4, 4] rad; with the largest difference from libm in ulps.
 """
 
 from __future__ import annotations
 
 import math
 
+import gymnasium as gym
+import numba
 import numpy as np
-from _common import median_seconds, table, write_markdown
+from _common import arguments, median_seconds, table, write_markdown
 
-from rolling_disk_env import trig
-from rolling_disk_env.dynamics import DEFAULT_PARAMS, FULL_MODEL, LEAN_MODEL
-from rolling_disk_env.integrators import EVALUATIONS_PER_STEP, STEPS, rk4_batched, workspace
+import rolling_disk_env as rd
+from rolling_disk_env import engine, trig
+from rolling_disk_env._generated import kernels
+from rolling_disk_env.integrators import EVALUATIONS_PER_STEP
 
 DT = 0.01
-SCENARIO_1 = [2.0, 0.0, 0.0, 0.1, 0.0, 2.5, 0.0, 0.0]
-ARGS = (0.0, 0.0, *DEFAULT_PARAMS.constants)
+SCENARIO_1 = (2.0, 0.0, 0.0, 0.1, 0.0, 2.5, 0.0, 0.0)
+RK4 = engine.METHODS.index("rk4")
+DISK = rd.DiskParams().constants
 
 
-def plain_python_rk4(x, dt, g=9.81, r=1.0):
-    """The floor: the paper's state equations typed by hand, one RK4 step, no torques."""
-
-    def f(c1, c2, phi, th, ps, dph, dth, dps):
-        st, ct, sp, cp = math.sin(th), math.cos(th), math.sin(ps), math.cos(ps)
-        return (
-            r * (sp * dph + cp * ct * dth - sp * st * dps),
-            r * (-cp * dph + sp * ct * dth + cp * st * dps),
-            dph,
-            dth,
-            dps,
-            2 * dph * dth * st / ct + 5 / 3 * dth * dps * ct,
-            4 / (5 * r) * g * st - 6 / 5 * dph * dps * ct + dps * dps * st * ct,
-            2 * dph * dth / ct,
+@numba.njit(error_model="numpy")
+def rk4_lanes(lanes, dt):
+    """One RK4 step of every disk of a lanes array (``engine.LANES`` rows, a column per disk), as the vector env's
+    fused step integrates them (component by component: a loop over the tuple would keep the loop scalar)."""
+    for i in range(lanes.shape[1]):
+        x = kernels.state_rk4_step(
+            (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i]),
+            dt,
+            lanes[engine.TAU_SPIN, i],
+            lanes[engine.TAU_STEER, i],
+            lanes[engine.MASS, i],
+            lanes[engine.GRAVITY, i],
+            lanes[engine.RADIUS, i],
         )
-
-    k1 = f(*x)
-    k2 = f(*[a + 0.5 * dt * b for a, b in zip(x, k1)])
-    k3 = f(*[a + 0.5 * dt * b for a, b in zip(x, k2)])
-    k4 = f(*[a + dt * b for a, b in zip(x, k3)])
-    return [a + dt / 6 * (b + 2 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
+        lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
+        lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
 
 
-def scalar_rows() -> list[list[object]]:
-    floor = median_seconds(lambda: plain_python_rk4(SCENARIO_1, DT), 20_000)
-    rows = [["plain-Python floor (hand-written, full)", "rk4", f"{floor * 1e6:.2f}", "1.00"]]
-    for model, x in ((FULL_MODEL, SCENARIO_1), (LEAN_MODEL, [0.1, 2.5, 0.0, 0.0])):
-        for method, (step, _) in STEPS.items():
-            seconds = median_seconds(lambda step=step, model=model, x=x: step(model.scalar, x, DT, ARGS), 20_000)
-            rows.append([f"generated, {model.name} model", method, f"{seconds * 1e6:.2f}", f"{seconds / floor:.2f}"])
-        seconds = median_seconds(lambda model=model, x=x: model.scalar_rk4(x, DT, *ARGS), 20_000)
+@numba.njit(error_model="numpy")
+def sincos_ours(angles, sines, cosines):
+    for i in range(angles.size):
+        sines[i], cosines[i] = trig.sincos(angles[i])
+
+
+@numba.njit(error_model="numpy")
+def sincos_libm(angles, sines, cosines):
+    for i in range(angles.size):
+        sines[i] = math.sin(angles[i])
+        cosines[i] = math.cos(angles[i])
+
+
+def sincos_numpy(angles, sines, cosines):
+    np.sin(angles, out=sines)
+    np.cos(angles, out=cosines)
+
+
+class Rows:
+    """The arguments of ``engine.advance`` for N disks on scenario 1."""
+
+    def __init__(self, n: int):
+        self.states = np.tile(np.array(SCENARIO_1), (n, 1))
+        self.torques = np.zeros((n, 2))
+        self.disks = np.tile(np.array(DISK), (n, 1))
+        self.sizes = np.full(n, DT)
+        self.status = np.zeros(n, dtype=np.int8)
+
+    def advance(self) -> None:
+        engine.advance(RK4, self.states, self.torques, self.disks, DT, self.sizes, 1e-6, 1e-8, self.status)
+
+
+def one_disk_rows(repeat: int) -> list[list[object]]:
+    x0 = np.array(SCENARIO_1)
+    steps = 1000
+    rd.simulate(x0, steps * DT, DT)
+    simulate = median_seconds(lambda: rd.simulate(x0, steps * DT, DT), 1, repeat) / steps
+    rows = Rows(1)
+    rows.advance()
+    advance = median_seconds(rows.advance, 20_000, repeat)
+    return [
+        [f"`rd.simulate`, {steps} steps", f"{simulate * 1e6:.2f}"],
+        ["`engine.advance`, one row per call", f"{advance * 1e6:.2f}"],
+    ]
+
+
+def batch_rows(sizes, repeat: int) -> list[list[object]]:
+    env_step = {}
+    for n in sizes:
+        env = gym.make_vec(rd.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+        env.reset(seed=0)
+        batch = env.unwrapped._batch
+        batch.parallel = False
+        out, actions = batch.outputs(), np.zeros((n, 2), dtype=np.float32)
+        batch.step(actions, out)
+        number = max(3, 200_000 // n)
+        env_step[n] = median_seconds(
+            lambda batch=batch, out=out, actions=actions: batch.step(actions, out), number, repeat
+        )
+        env.close()
+    result = []
+    for n in sizes:
+        number = max(3, 200_000 // n)
+        rows = Rows(n)
+        rows.advance()
+        advance = median_seconds(rows.advance, number, repeat)
+        lanes = np.zeros((engine.LANES, n))
+        lanes[:8] = np.array(SCENARIO_1)[:, None]
+        lanes[engine.MASS : engine.RADIUS + 1] = np.array(DISK)[:, None]
+        rk4_lanes(lanes, DT)
+        lanes_seconds = median_seconds(lambda lanes=lanes: rk4_lanes(lanes, DT), number, repeat)
+        result.append(
+            [
+                n,
+                f"{advance / n * 1e9:.0f}",
+                f"{n / advance / 1e6:.2f}",
+                f"{lanes_seconds / n * 1e9:.0f}",
+                f"{n / lanes_seconds / 1e6:.2f}",
+                f"{env_step[n] / n * 1e9:.0f}",
+                f"{lanes_seconds / env_step[n]:.2f}",
+            ]
+        )
+    return result
+
+
+def ulps(values: np.ndarray, reference: np.ndarray) -> float:
+    """The largest difference between ``values`` and ``reference`` in units of the reference's last place."""
+    return float(np.max(np.abs(values - reference) / np.spacing(np.abs(reference))))
+
+
+def sincos_rows(sizes, repeat: int) -> list[list[object]]:
+    rows = []
+    for n in sizes:
+        angles = np.random.default_rng(0).uniform(-4, 4, n)
+        number = max(20, 400_000 // n)
+        outputs = {}
+        seconds = {}
+        for name, loop in (("ours", sincos_ours), ("libm", sincos_libm), ("numpy", sincos_numpy)):
+            sines, cosines = np.empty(n), np.empty(n)
+            loop(angles, sines, cosines)
+            outputs[name] = (sines, cosines)
+            seconds[name] = median_seconds(
+                lambda loop=loop, a=angles, s=sines, c=cosines: loop(a, s, c), number, repeat
+            )
+        error = max(ulps(outputs["ours"][k], outputs["libm"][k]) for k in range(2))
         rows.append(
             [
-                f"generated, {model.name} model, stages written out",
-                "rk4",
-                f"{seconds * 1e6:.2f}",
-                f"{seconds / floor:.2f}",
+                n,
+                f"{seconds['ours'] / n * 1e9:.2f}",
+                f"{seconds['libm'] / n * 1e9:.2f}",
+                f"{seconds['numpy'] / n * 1e9:.2f}",
+                f"{seconds['libm'] / seconds['ours']:.2f}",
+                f"{error:.0f}",
             ]
         )
     return rows
 
 
-def batched_rows(sizes=(1, 16, 256, 4096, 65536)) -> list[list[object]]:
-    rows = []
-    for n in sizes:
-        for model in (FULL_MODEL, LEAN_MODEL):
-            x0 = np.array(SCENARIO_1 if model is FULL_MODEL else [0.1, 2.5, 0.0, 0.0])
-            x = np.tile(x0[:, None], (1, n))
-            work = workspace(x.shape)
-            torque = np.zeros(n)
-            args = (torque, torque, *DEFAULT_PARAMS.constants)
-            number = max(3, 200_000 // (n * 4))
-            seconds = median_seconds(
-                lambda f=model.batched, x=x, work=work, args=args: rk4_batched(f, x, DT, args, work), number
-            )
-            rows.append([n, model.name, f"{seconds * 1e6:.1f}", f"{n / seconds / 1e6:.2f}"])
-    return rows
-
-
-def trig_rows(sizes=(64, 512, 1024, 4096, 65536)) -> list[list[object]]:
-    """numpy's float64 sine against :mod:`rolling_disk_env.trig`'s (torch's from ``TORCH_FROM`` values up)."""
-    rows = []
-    for n in sizes:
-        angles = np.random.default_rng(0).uniform(-4, 4, n)
-        number = max(20, 200_000 // n)
-        ours = median_seconds(lambda a=angles: trig.sin(a), number)
-        theirs = median_seconds(lambda a=angles: np.sin(a), number)
-        rows.append([n, f"{theirs * 1e6:.1f}", f"{ours * 1e6:.1f}", f"{theirs / ours:.2f}"])
-    return rows
-
-
 def main() -> None:
-    scalar = scalar_rows()
-    batched = batched_rows()
-    sines = trig_rows()
+    args = arguments(__doc__)
+    repeat = 3 if args.quick else 7
+    sizes = (1, 16, 256, 4096) if args.quick else (1, 16, 256, 4096, 65536)
+    one = one_disk_rows(repeat)
+    batch = batch_rows(sizes, repeat)
+    sines = sincos_rows((64, 1024, 4096) if args.quick else (64, 1024, 4096, 65536), repeat)
     evaluations = ", ".join(f"{method} {count}" for method, count in EVALUATIONS_PER_STEP.items())
     write_markdown(
         "dynamics",
-        "Step cost of the generated equations",
+        "Step cost of the compiled engine",
         "python benchmarks/bench_dynamics.py",
         [
-            "## One disk (scalar path: floats and `math`), one step, median of 7 runs",
+            __doc__.split("\n\n", 2)[2].strip(),
             "",
-            table(["implementation", "method", "us / step", "ratio to floor"], scalar),
+            "## One disk, RK4",
             "",
-            f"Right-hand-side evaluations per step: {evaluations}.",
+            table(["call", "us per step"], one),
             "",
-            "## N disks (batched numpy path), RK4, one step, median of 7 runs",
+            "## N disks, RK4, per disk-step",
             "",
-            table(["N", "model", "us / step", "M disk-steps / s"], batched),
+            table(
+                [
+                    "N",
+                    "`engine.advance` (rows) ns",
+                    "M disk-steps/s",
+                    "lanes loop ns",
+                    "M disk-steps/s",
+                    "vector env's fused step, serial, ns",
+                    "RK4's share of the fused step",
+                ],
+                batch,
+            ),
             "",
-            "## Sine of N float64 values: numpy against `rolling_disk_env.trig` (the batched path's), median of 7 runs",
+            f"Derivative evaluations per step: {evaluations}, dopri5 7 per attempted step.",
             "",
-            table(["N", "numpy.sin us", "trig.sin us", "speed-up"], sines),
+            "## Sine and cosine of N angles in a compiled loop, ns per angle",
+            "",
+            table(
+                [
+                    "N",
+                    "`trig.sincos`",
+                    "`math.sin` + `math.cos` (libm)",
+                    "`np.sin` + `np.cos`",
+                    "libm / `trig.sincos`",
+                    "largest difference from libm (ulp)",
+                ],
+                sines,
+            ),
         ],
+        out=args.out,
     )
 
 

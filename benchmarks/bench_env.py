@@ -1,21 +1,40 @@
-"""Env speed: one ``env.step`` against Gymnasium's classic-control envs, and vector-env throughput against N.
+"""Env speed: one ``env.step`` against Gymnasium's classic-control envs, the native vector env against Gymnasium's
+``CartPoleVectorEnv`` at every batch size, the parallel loop on and off, and the compile cost.
 
-``python benchmarks/bench_env.py [--quick]`` writes ``benchmarks/results/env_speed.md`` and ``env_throughput.png``.
-Every env is built with ``gymnasium.make`` and its defaults (so with its wrappers), stepped with pre-drawn random
-actions and reset when an episode ends; the envs are timed in turn within each repeat, so a slow spell of the shared
-machine hits all of them, and the table reports medians and ratios taken within the run.
+``python benchmarks/bench_env.py [--quick] [--out DIR]`` writes ``env_speed.md`` and ``env_throughput.png`` to DIR
+(default ``benchmarks/results``).
+
+1. One ``env.step`` of every env built with ``gymnasium.make`` and its defaults (so with its wrappers), random
+   actions drawn beforehand, reset when an episode ends.
+2. The vector envs of ``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")``, default
+   settings, random actions drawn beforehand, Gymnasium's next-step autoreset: env steps per second (N per call).
+3. Our vector env with its parallel loop forced on and off (``env.unwrapped._batch.parallel``), around
+   ``engine.PARALLEL_FROM``, the batch size from which the env turns it on.
+4. Compile cost, each in a fresh process: ``import rolling_disk_env``; the default env's first ``gym.make``,
+   ``reset`` and ``step`` with an empty numba cache (``NUMBA_CACHE_DIR`` set to an empty folder: every kernel
+   compiles), then again with that cache warm.
+
+In 1 to 3 the envs compared are timed in turn within each repeat (each sample about the same wall time), so a slow
+spell of the shared machine hits all of them; the tables report medians and ratios taken within the run.
 """
 
 from __future__ import annotations
 
-import argparse
+import json
+import os
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 
 import gymnasium as gym
-from _common import RESULTS, table, write_markdown
+import numba
+import numpy as np
+from _common import arguments, medians_in_turns, table, write_markdown
 
 import rolling_disk_env as rd
+from rolling_disk_env import engine
 
 SINGLE = {
     "RollingDisk-v0 (upright)": (rd.ENV_ID, {}),
@@ -24,6 +43,33 @@ SINGLE = {
     "Pendulum-v1": ("Pendulum-v1", {}),
     "Acrobot-v1": ("Acrobot-v1", {}),
 }
+VECTOR = {
+    "upright": (rd.ENV_ID, {}),
+    "circle": (rd.ENV_ID, {"task": "circle"}),
+    "CartPole-v1": ("CartPole-v1", {}),
+}
+SIZES = (1, 8, 64, 512, 4096, 16384)
+PARALLEL_SIZES = (256, 512, 1024, 2048, 4096, 16384)
+TASKS = ("upright", "circle")
+
+FIRST_STEP = """
+import json, sys, time
+start = time.perf_counter()
+import rolling_disk_env as rd
+imported = time.perf_counter()
+heavy = [name for name in ("sympy", "numba", "torch") if name in sys.modules]
+import gymnasium as gym
+env = gym.make(rd.ENV_ID)
+made = time.perf_counter()
+env.reset(seed=0)
+reset = time.perf_counter()
+env.step(env.action_space.sample())
+stepped = time.perf_counter()
+print(json.dumps({"import": imported - start, "make": made - imported, "reset": reset - made,
+                  "step": stepped - reset, "first step": stepped - start, "heavy": heavy}))
+"""
+"""Run in a fresh process: the times (s) from ``import rolling_disk_env`` to the end of the default env's first step,
+and the heavy modules the import loaded."""
 
 
 def _stepper(env_id: str, kwargs: dict, steps: int):
@@ -45,46 +91,142 @@ def _stepper(env_id: str, kwargs: dict, steps: int):
 
 
 def single_env_times(steps: int, repeats: int) -> dict[str, float]:
+    """Median seconds per ``env.step`` of each env of :data:`SINGLE`."""
     runs = {name: _stepper(env_id, kwargs, steps) for name, (env_id, kwargs) in SINGLE.items()}
-    samples = {name: [] for name in runs}
-    for _ in range(repeats):
-        for name, run in runs.items():
-            samples[name].append(run())
-    return {name: statistics.median(values) for name, values in samples.items()}
+    return medians_in_turns(runs, repeats)
 
 
-def vector_throughput(env_id: str, sizes, steps: int, repeats: int) -> list[float]:
-    rates = []
+def random_actions(space: gym.Space, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``count`` random batched actions of a vector env's ``action_space`` (a Box or a MultiDiscrete), stacked."""
+    if isinstance(space, gym.spaces.Box):
+        return rng.uniform(space.low, space.high, (count, *space.shape)).astype(space.dtype)
+    if isinstance(space, gym.spaces.MultiDiscrete):
+        return (space.start + rng.integers(0, space.nvec, (count, *space.shape))).astype(space.dtype)
+    raise TypeError(f"no random actions for {space}")
+
+
+class VectorRun:
+    """A vector env stepped with random actions: each call times about ``seconds`` of stepping and returns the env
+    steps per second (N per call).
+
+    Args:
+        env_id: the id, made with ``vectorization_mode="vector_entry_point"``.
+        num_envs: N.
+        kwargs: the id's keyword arguments.
+        seconds: the wall time of one sample, for which the number of calls is calibrated once.
+        parallel: force our env's parallel loop on or off; None leaves the env's choice.
+    """
+
+    def __init__(self, env_id: str, num_envs: int, kwargs: dict, seconds: float, parallel: bool | None = None):
+        self.env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
+        if parallel is not None:
+            self.env.unwrapped._batch.parallel = parallel
+        self.num_envs = num_envs
+        self.env.reset(seed=0)
+        rng = np.random.default_rng(0)
+        warm_up = random_actions(self.env.action_space, 20, rng)
+        self._step_all(warm_up[:10])  # compiles or loads the parallel loop if it was forced on
+        start = time.perf_counter()
+        self._step_all(warm_up[10:])
+        per_call = (time.perf_counter() - start) / 10
+        self.actions = random_actions(self.env.action_space, min(200_000, max(5, round(seconds / per_call))), rng)
+
+    def _step_all(self, actions: np.ndarray) -> None:
+        for action in actions:
+            self.env.step(action)
+
+    @property
+    def parallel(self) -> bool:
+        return bool(self.env.unwrapped._batch.parallel)
+
+    def __call__(self) -> float:
+        start = time.perf_counter()
+        self._step_all(self.actions)
+        return self.num_envs * len(self.actions) / (time.perf_counter() - start)
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def vector_rates(sizes, seconds: float, repeats: int) -> tuple[dict[str, list[float]], list[bool]]:
+    """Steps per second of each env of :data:`VECTOR` at each N, and whether our env ran its parallel loop there."""
+    rates, parallel = {name: [] for name in VECTOR}, []
     for n in sizes:
-        env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
-        env.action_space.seed(0)
-        env.reset(seed=0)
-        count = min(max(20, steps // n), 2000)
-        actions = [env.action_space.sample() for _ in range(count)]
-        samples = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            for action in actions:
-                env.step(action)
-            samples.append(n * count / (time.perf_counter() - start))
-        rates.append(statistics.median(samples))
-        env.close()
-    return rates
+        runs = {name: VectorRun(env_id, n, kwargs, seconds) for name, (env_id, kwargs) in VECTOR.items()}
+        for name, rate in medians_in_turns(runs, repeats).items():
+            rates[name].append(rate)
+        parallel.append(runs["upright"].parallel)
+        for run in runs.values():
+            run.close()
+    return rates, parallel
 
 
-def chart(sizes, ours, cartpole, path):
+def parallel_rows(sizes, seconds: float, repeats: int) -> list[list[object]]:
+    """Our vector env with the parallel loop off and on at each N, both tasks, timed in turns."""
+    rows = []
+    for n in sizes:
+        runs = {
+            (task, parallel): VectorRun(rd.ENV_ID, n, {"task": task}, seconds, parallel=parallel)
+            for task in TASKS
+            for parallel in (False, True)
+        }
+        rates = medians_in_turns(runs, repeats)
+        for task in TASKS:
+            serial, threaded = rates[(task, False)], rates[(task, True)]
+            default = "parallel" if n >= engine.PARALLEL_FROM and numba.get_num_threads() > 1 else "serial"
+            rows.append([n, task, f"{serial / 1e6:.2f}", f"{threaded / 1e6:.2f}", f"{threaded / serial:.2f}", default])
+        for run in runs.values():
+            run.close()
+    return rows
+
+
+def fresh_process(cache: str) -> dict:
+    """:data:`FIRST_STEP` in a fresh Python with ``NUMBA_CACHE_DIR=cache``, plus its wall time from spawn to exit."""
+    start = time.perf_counter()
+    result = subprocess.run(
+        [sys.executable, "-c", FIRST_STEP],
+        env={**os.environ, "NUMBA_CACHE_DIR": cache},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return {**json.loads(result.stdout.splitlines()[-1]), "process": time.perf_counter() - start}
+
+
+def compile_rows(warm_runs: int) -> tuple[list[list[object]], list[str]]:
+    """The cold and the warm first step (median of ``warm_runs`` processes), and the heavy modules imported."""
+    with tempfile.TemporaryDirectory(prefix="numba-cache-") as cache:
+        cold = fresh_process(cache)
+        warm = [fresh_process(cache) for _ in range(warm_runs)]
+    keys = ("import", "make", "reset", "step", "first step", "process")
+    rows = [
+        ["empty cache (cold: compiles)", *(f"{cold[key]:.2f}" for key in keys)],
+        [
+            f"warm cache (median of {warm_runs})",
+            *(f"{statistics.median(run[key] for run in warm):.2f}" for key in keys),
+        ],
+    ]
+    return rows, sorted({name for run in (cold, *warm) for name in run["heavy"]})
+
+
+def chart(sizes, rates, path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    ax.loglog(sizes, ours, "o-", label="RollingDisk-v0 (RK4, 8-state exact model)")
-    ax.loglog(sizes, cartpole, "s--", label="CartPole-v1 native vector env (Euler, 4 states)")
-    ax.axhline(3e6, color="gray", lw=0.8, ls=":", label="3M steps/s")
+    labels = {
+        "upright": ("o-", "RollingDisk-v0, upright (RK4, 8-state exact model)"),
+        "circle": ("^-", "RollingDisk-v0, circle"),
+        "CartPole-v1": ("s--", "CartPole-v1's CartPoleVectorEnv (Euler, 4 states)"),
+    }
+    for name, values in rates.items():
+        style, label = labels[name]
+        ax.loglog(sizes, values, style, label=label)
     ax.set_xlabel("number of environments N")
     ax.set_ylabel("env steps per second")
-    ax.set_title("Native vector env throughput (median)")
+    ax.set_title("Native vector envs, random actions (median)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -93,38 +235,89 @@ def chart(sizes, ours, cartpole, path):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer steps and repeats (a smoke run)")
-    args = parser.parse_args()
-    steps, repeats = (2_000, 3) if args.quick else (20_000, 7)
-    sizes = [1, 4, 16, 64, 256, 1024, 4096, 16384]
+    args = arguments(__doc__)
+    steps, repeats, seconds, warm_runs = (2_000, 3, 0.01, 1) if args.quick else (20_000, 7, 0.2, 3)
 
     times = single_env_times(steps, repeats)
     acrobot, cartpole = times["Acrobot-v1"], times["CartPole-v1"]
-    single_rows = [
-        [name, f"{seconds * 1e6:.2f}", f"{seconds / acrobot:.2f}", f"{seconds / cartpole:.2f}"]
-        for name, seconds in times.items()
+    single = [
+        [name, f"{value * 1e6:.2f}", f"{value / acrobot:.2f}", f"{value / cartpole:.2f}"]
+        for name, value in times.items()
     ]
-    vector_steps = 100_000 if args.quick else 1_000_000
-    ours = vector_throughput(rd.ENV_ID, sizes, vector_steps, repeats)
-    theirs = vector_throughput("CartPole-v1", sizes, vector_steps, repeats)
-    chart(sizes, ours, theirs, RESULTS / "env_throughput.png")
-    vector_rows = [[n, f"{a / 1e6:.3f}", f"{b / 1e6:.3f}", f"{a / b:.2f}"] for n, a, b in zip(sizes, ours, theirs)]
+
+    rates, parallel = vector_rates(SIZES, seconds, repeats)
+    chart(SIZES, rates, args.out / "env_throughput.png")
+    vector = [
+        [
+            n,
+            f"{rates['upright'][i] / 1e6:.3f}",
+            f"{rates['circle'][i] / 1e6:.3f}",
+            f"{rates['CartPole-v1'][i] / 1e6:.3f}",
+            f"{rates['upright'][i] / rates['CartPole-v1'][i]:.2f}",
+            f"{rates['circle'][i] / rates['CartPole-v1'][i]:.2f}",
+            "parallel" if parallel[i] else "serial",
+        ]
+        for i, n in enumerate(SIZES)
+    ]
+    threads = parallel_rows(PARALLEL_SIZES, seconds, repeats)
+    compiled, heavy = compile_rows(warm_runs)
+
     write_markdown(
         "env_speed",
         "Env speed",
         "python benchmarks/bench_env.py",
         [
-            f"## One `env.step` through `gymnasium.make` (median of {repeats} runs of {steps} steps, random actions)",
+            __doc__.split("\n\n", 2)[2].strip(),
             "",
-            table(["env", "us / step", "ratio to Acrobot-v1", "ratio to CartPole-v1"], single_rows),
+            f"## One `env.step` through `gymnasium.make` (median of {repeats} runs of {steps} steps)",
             "",
-            '## Native vector env (`make_vec(..., vectorization_mode="vector_entry_point")`), random actions',
+            table(["env", "us / step", "ratio to Acrobot-v1", "ratio to CartPole-v1"], single),
             "",
-            table(["N", "RollingDisk-v0 M steps/s", "CartPole-v1 M steps/s", "ratio"], vector_rows),
+            f"## Native vector envs (median of {repeats} samples of about {seconds:g} s each)",
+            "",
+            table(
+                [
+                    "N",
+                    "upright M steps/s",
+                    "circle M steps/s",
+                    "CartPole-v1 M steps/s",
+                    "upright / CartPole",
+                    "circle / CartPole",
+                    "our loop",
+                ],
+                vector,
+            ),
             "",
             "![throughput](env_throughput.png)",
+            "",
+            f"## Our vector env, parallel loop off and on ({numba.get_num_threads()} numba threads; the env turns it "
+            f"on from N = engine.PARALLEL_FROM = {engine.PARALLEL_FROM})",
+            "",
+            table(
+                ["N", "task", "serial M steps/s", "parallel M steps/s", "parallel / serial", "the env's choice"],
+                threads,
+            ),
+            "",
+            "## Compile cost: the default env (`gym.make(rd.ENV_ID)`), each row a fresh process, seconds",
+            "",
+            table(
+                [
+                    "numba cache",
+                    "`import rolling_disk_env`",
+                    "`gym.make`",
+                    "`reset`",
+                    "first `step`",
+                    "import to first step",
+                    "process, spawn to exit",
+                ],
+                compiled,
+            ),
+            "",
+            "Modules among sympy, numba and torch that `import rolling_disk_env` loaded: "
+            + (", ".join(heavy) if heavy else "none")
+            + ".",
         ],
+        out=args.out,
     )
 
 

@@ -1,9 +1,14 @@
 """Level of detail: the reduced lean model (theta, dphi, dtheta, dpsi) against the full 8-state model.
 
-``python benchmarks/bench_lod.py`` writes ``benchmarks/results/level_of_detail.md``: RK4 cost per step and per
-episode (500 steps of 0.02 s) on the scalar path and the batched path (N = 4096), and the largest difference
-between the lean model and the lean part of the full model over the episode, from scenario 1 and from 64 random
-states (seed 0), with random torques held for each step.
+``python benchmarks/bench_lod.py [--quick] [--out DIR]`` writes ``level_of_detail.md`` to DIR (default
+``benchmarks/results``).
+
+RK4 at the env's dt = 0.02 s from the paper's scenario 1, medians of 7 runs (3 with ``--quick``): an episode (500
+steps) through ``rd.simulate(..., model="lean")`` and ``model="full"``; one step of one disk through
+``engine.advance`` on a row of 4 and a row of 8 (the call's overhead included); one step of N = 4096 disks through
+``engine.advance``, per disk. Agreement: the largest difference between the lean model and the lean part of the full
+model, both stepped by ``engine.advance`` for 500 steps from scenario 1 and 64 random states (seed 0) under random
+torques (uniform in [-2, 2] N m, per disk and step), compared while both stay in the model's domain.
 """
 
 from __future__ import annotations
@@ -11,93 +16,113 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from _common import median_seconds, table, write_markdown
+from _common import arguments, median_seconds, table, write_markdown
 
-from rolling_disk_env.dynamics import DEFAULT_PARAMS, FULL_MODEL, LEAN_INDICES, LEAN_MODEL
-from rolling_disk_env.integrators import rk4_batched, workspace
+import rolling_disk_env as rd
+from rolling_disk_env import engine
+from rolling_disk_env.dynamics import LEAN_INDICES
 
 DT, STEPS = 0.02, 500
+RK4 = engine.METHODS.index("rk4")
+SCENARIO_1 = np.array([2.0, 0.0, 0.0, 0.1, 0.0, 2.5, 0.0, 0.0])
+SIZES = {"full": 8, "lean": 4}
 
 
-def episode_seconds(model, x0) -> tuple[float, float]:
-    """(seconds per step, seconds per episode), scalar path."""
-    args = (0.3, -0.5, *DEFAULT_PARAMS.constants)
-    x = list(x0)
-    step = median_seconds(lambda: model.scalar_rk4(x, DT, *args), 20_000)
-
-    def episode():
-        y = list(x0)
-        for _ in range(STEPS):
-            y = model.scalar_rk4(y, DT, *args)
-
-    return step, median_seconds(episode, 20)
-
-
-def batched_seconds(model, x0, n=4096) -> float:
-    x = np.tile(np.asarray(x0, dtype=float)[:, None], (1, n))
-    work = workspace(x.shape)
-    torque = np.zeros(n)
-    return median_seconds(
-        lambda: rk4_batched(model.batched, x, DT, (torque, torque, *DEFAULT_PARAMS.constants), work), 50
-    )
+def rows(model: str, states: np.ndarray) -> dict:
+    """The arguments of ``engine.advance`` for the rows of ``states`` (full states) on ``model``."""
+    n = states.shape[0]
+    x = states if model == "full" else states[:, LEAN_INDICES]
+    return {
+        "states": np.ascontiguousarray(x),
+        "torques": np.zeros((n, 2)),
+        "disks": np.tile(np.array(rd.DiskParams().constants), (n, 1)),
+        "sizes": np.full(n, DT),
+        "status": np.zeros(n, dtype=np.int8),
+    }
 
 
-def agreement() -> float:
+def advance(a: dict) -> None:
+    engine.advance(RK4, a["states"], a["torques"], a["disks"], DT, a["sizes"], 1e-6, 1e-8, a["status"])
+
+
+def costs(repeat: int) -> dict[str, tuple[float, float, float]]:
+    """Per model: (seconds per simulate episode, seconds per one-disk advance, seconds per disk-step at N = 4096)."""
+    result = {}
+    for model in SIZES:
+        x0 = SCENARIO_1 if model == "full" else SCENARIO_1[list(LEAN_INDICES)]
+        rd.simulate(x0, STEPS * DT, DT, model=model)
+        episode = median_seconds(lambda x0=x0, model=model: rd.simulate(x0, STEPS * DT, DT, model=model), 1, repeat)
+        one = rows(model, SCENARIO_1[None])
+        advance(one)
+        single = median_seconds(lambda one=one: advance(one), 20_000, repeat)
+        many = rows(model, np.tile(SCENARIO_1, (4096, 1)))
+        advance(many)
+        batch = median_seconds(lambda many=many: advance(many), 50, repeat) / 4096
+        result[model] = (episode, single, batch)
+    return result
+
+
+def agreement() -> tuple[float, int, int]:
+    """(largest |lean - lean part of full| while both are in the domain, disks compared, disks that left it)."""
     rng = np.random.default_rng(0)
     starts = np.zeros((64, 8))
     starts[:, 3] = rng.uniform(-0.3, 0.3, 64)
     starts[:, 5:] = rng.uniform([1, -1, -1], [4, 1, 1], (64, 3))
-    starts = np.vstack([[2, 0, 0, 0.1, 0, 2.5, 0, 0], starts])
-    torques = rng.uniform(-2, 2, (STEPS, 2))
+    starts = np.vstack([SCENARIO_1, starts])
+    torques = rng.uniform(-2, 2, (STEPS, len(starts), 2))
+    full, lean = rows("full", starts), rows("lean", starts)
+    inside = np.ones(len(starts), dtype=bool)
     worst = 0.0
-    for x0 in starts:
-        full, lean = list(x0), [x0[i] for i in LEAN_INDICES]
-        for u in torques:
-            args = (u[0], u[1], *DEFAULT_PARAMS.constants)
-            full, lean = FULL_MODEL.scalar_rk4(full, DT, *args), LEAN_MODEL.scalar_rk4(lean, DT, *args)
-            worst = max(worst, float(np.max(np.abs(np.array(lean) - np.array(full)[list(LEAN_INDICES)]))))
-    return worst
+    for u in torques:
+        full["torques"][:] = lean["torques"][:] = u
+        advance(full)
+        advance(lean)
+        inside &= (full["status"] == engine.RUNNING) & (lean["status"] == engine.RUNNING)
+        difference = np.abs(lean["states"] - full["states"][:, LEAN_INDICES]).max(axis=1)
+        worst = max(worst, float(np.max(difference[inside], initial=0.0)))
+    return worst, len(starts), int(np.sum(~inside))
 
 
 def main() -> None:
-    x0 = [2.0, 0.0, 0.0, 0.1, 0.0, 2.5, 0.0, 0.0]
-    y0 = [x0[i] for i in LEAN_INDICES]
-    full_step, full_episode = episode_seconds(FULL_MODEL, x0)
-    lean_step, lean_episode = episode_seconds(LEAN_MODEL, y0)
-    full_batch, lean_batch = batched_seconds(FULL_MODEL, x0), batched_seconds(LEAN_MODEL, y0)
+    args = arguments(__doc__)
+    repeat = 3 if args.quick else 7
+    cost = costs(repeat)
     start = time.perf_counter()
-    difference = agreement()
+    difference, disks, left = agreement()
     seconds = time.perf_counter() - start
-    rows = [
-        ["scalar, us per step", f"{full_step * 1e6:.2f}", f"{lean_step * 1e6:.2f}", f"{full_step / lean_step:.2f}"],
+    labels = (
+        ("`rd.simulate`, ms per episode", 1e3, ".2f"),
+        ("`engine.advance`, one disk, us per step", 1e6, ".2f"),
+        ("`engine.advance`, N = 4096, ns per disk-step", 1e9, ".0f"),
+    )
+    table_rows = [
         [
-            "scalar, ms per episode",
-            f"{full_episode * 1e3:.2f}",
-            f"{lean_episode * 1e3:.2f}",
-            f"{full_episode / lean_episode:.2f}",
-        ],
-        [
-            "batched N = 4096, us per step",
-            f"{full_batch * 1e6:.0f}",
-            f"{lean_batch * 1e6:.0f}",
-            f"{full_batch / lean_batch:.2f}",
-        ],
+            label,
+            f"{cost['full'][k] * scale:{spec}}",
+            f"{cost['lean'][k] * scale:{spec}}",
+            f"{cost['full'][k] / cost['lean'][k]:.2f}",
+        ]
+        for k, (label, scale, spec) in enumerate(labels)
     ]
+    outcome = (
+        "0 (bitwise equal: the generated lean equations do the full model's arithmetic)"
+        if difference == 0
+        else f"{difference:.1e} (round-off, amplified along unstable trajectories)"
+    )
     write_markdown(
         "level_of_detail",
         "Level of detail: lean model against full model (RK4, dt = 0.02 s)",
         "python benchmarks/bench_lod.py",
         [
-            table(["cost", "full (8 states)", "lean (4 states)", "full / lean"], rows),
+            __doc__.split("\n\n", 2)[2].strip(),
             "",
-            f"Largest |lean - lean part of full| over 65 episodes of {STEPS} steps with random torques: "
-            + (
-                "0 (bitwise equal: the generated lean equations do the full model's arithmetic)"
-                if difference == 0
-                else f"{difference:.1e} (round-off, amplified along unstable trajectories)"
-            )
-            + f"; computed in {seconds:.1f} s.",
+            table(["cost", "full (8 states)", "lean (4 states)", "full / lean"], table_rows),
+            "",
+            f"Largest |lean - lean part of full| over {disks} episodes of {STEPS} steps with random torques: "
+            f"{outcome}; {left} of the {disks} disks left the model's domain (fell flat) and were compared until then; "
+            f"computed in {seconds:.1f} s.",
         ],
+        out=args.out,
     )
 
 

@@ -1,13 +1,17 @@
 """The peer users would pick instead: the same disk in MuJoCo (``pip install -e ".[bench]"``).
 
-``python benchmarks/bench_mujoco.py`` writes ``benchmarks/results/mujoco.md`` and ``mujoco_work_precision.png``.
+``python benchmarks/bench_mujoco.py [--quick] [--out DIR]`` writes ``mujoco.md`` and ``mujoco_work_precision.png`` to
+DIR (default ``benchmarks/results``).
+
 MuJoCo gets a thin cylinder of the same mass and inertia (5 kg; m r^2/2 about the axis, m r^2/4 about a diameter)
 on a plane with friction 1 (condim 3), started in the paper's two scenarios with the velocities of rolling. At each
 timestep it reports: slip (largest speed of the disk's lowest material point), energy lost (relative), centre-position
 and lean errors against our exact model (``dop853``, rtol 1e-12), the radius error on scenario 2's steady circle,
-and wall time per simulated second. Our fixed-step methods are timed in the same run and drawn on the same chart;
-"matched wall time" and "equal error" compare MuJoCo with our RK4 (scalar path) by interpolating its curve; "<"
-marks MuJoCo errors larger than our cheapest RK4 run (dt 0.05 s) has. MuJoCo uses its default integrator.
+and wall time per simulated second. Our fixed-step methods are timed in the same run (``rd.simulate``, one disk: a
+Python call per step, as MuJoCo's ``mj_step`` loop is here) and drawn on the same chart; "matched wall time" and
+"equal error" compare MuJoCo with our RK4 by interpolating its curve; "<" marks MuJoCo errors larger than our
+cheapest RK4 run (dt 0.05 s) has. MuJoCo uses its default integrator. Medians of 3 runs (1 with ``--quick``, which
+also shortens the scenarios to 2 s and the timesteps to the three largest).
 """
 
 from __future__ import annotations
@@ -16,7 +20,7 @@ import statistics
 import time
 
 import numpy as np
-from _common import RESULTS, table, write_markdown
+from _common import arguments, table, write_markdown
 from bench_accuracy import run as run_ours
 
 import rolling_disk_env as rd
@@ -116,22 +120,24 @@ def unwrap_errors(states, reference):
 
 
 def main() -> None:
+    args = arguments(__doc__)
+    repeats, duration_cap, timesteps = (1, 2.0, TIMESTEPS[:3]) if args.quick else (3, np.inf, TIMESTEPS)
     rows, chart_data, comparisons = [], {}, []
     for scenario in scenarios():
         x0 = np.array(scenario.state0, dtype=float)
-        _, reference = rd.simulate(x0, scenario.duration, OUTPUT_DT, method="dop853", rtol=1e-12, atol=1e-12)
+        duration = min(scenario.duration, duration_cap)
+        _, reference = rd.simulate(x0, duration, OUTPUT_DT, method="dop853", rtol=1e-12, atol=1e-12)
         energy0 = rd.energy(x0)
         ours = {}
         for method, steps in OURS.items():
             for dt in steps:
-                outcome = run_ours(x0, scenario.duration, method, dt, 3)
-                if outcome is not None:
-                    states, seconds, _ = outcome
-                    position, lean = unwrap_errors(states, reference)
-                    ours.setdefault(method, []).append((seconds / scenario.duration, position, lean))
+                outcome = run_ours(x0, duration, method, dt, repeats)
+                if outcome.states is not None:
+                    position, lean = unwrap_errors(outcome.states, reference)
+                    ours.setdefault(method, []).append((outcome.seconds, position, lean))
         mujoco_points = []
-        for timestep in TIMESTEPS:
-            runs = [simulate_mujoco(x0, scenario.duration, timestep) for _ in range(3)]
+        for timestep in timesteps:
+            runs = [simulate_mujoco(x0, duration, timestep) for _ in range(repeats)]
             states, slips, energies, _ = runs[0]
             seconds = statistics.median(r[3] for r in runs)
             position, lean = unwrap_errors(states, reference)
@@ -141,7 +147,7 @@ def main() -> None:
                 theta, dpsi = x0[3], x0[7]
                 radius = PARAMS.radius * (x0[5] - dpsi * np.sin(theta)) / dpsi
                 circle = f"{np.max(np.abs(np.hypot(states[:, 0] - 2 - radius, states[:, 1]) - radius)):.3f}"
-            per_second = seconds / scenario.duration
+            per_second = seconds / duration
             mujoco_points.append((per_second, position, lean))
             rows.append(
                 [
@@ -156,14 +162,14 @@ def main() -> None:
                 ]
             )
         chart_data[scenario.name] = (ours, mujoco_points)
-        comparisons += compare(scenario.name, ours["rk4"], mujoco_points)
-    chart(chart_data)
+        comparisons += compare(scenario.name, ours["rk4"], timesteps, mujoco_points)
+    chart(chart_data, timesteps, args.out / "mujoco_work_precision.png")
     write_markdown(
         "mujoco",
         "MuJoCo against the exact model",
         "python benchmarks/bench_mujoco.py",
         [
-            __doc__.split("\n\n", 1)[1].strip(),
+            __doc__.split("\n\n", 2)[2].strip(),
             "",
             table(
                 [
@@ -179,7 +185,7 @@ def main() -> None:
                 rows,
             ),
             "",
-            "## Against our RK4 (scalar path)",
+            "## Against our RK4 (`rd.simulate`, one disk)",
             "",
             table(
                 [
@@ -195,17 +201,18 @@ def main() -> None:
             "",
             "![work-precision with MuJoCo](mujoco_work_precision.png)",
         ],
+        out=args.out,
     )
 
 
-def compare(name, rk4_points, mujoco_points) -> list[list[str]]:
+def compare(name, rk4_points, timesteps, mujoco_points) -> list[list[str]]:
     """Interpolates our RK4 curve (log-log) at MuJoCo's wall time and at MuJoCo's error."""
     costs = np.log([p[0] for p in rk4_points])
     errors = np.log([max(p[1], 1e-16) for p in rk4_points])
     order = np.argsort(costs)
     by_error = np.argsort(errors)
     rows = []
-    for timestep, (cost, error, _) in zip(TIMESTEPS, mujoco_points):
+    for timestep, (cost, error, _) in zip(timesteps, mujoco_points):
         # Outside our measured range np.interp clamps: say so instead of inventing a number.
         at_cost = np.exp(np.interp(np.log(cost), costs[order], errors[order]))
         beyond = np.log(cost) > costs.max()
@@ -224,7 +231,7 @@ def compare(name, rk4_points, mujoco_points) -> list[list[str]]:
     return rows
 
 
-def chart(chart_data) -> None:
+def chart(chart_data, timesteps, path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -241,7 +248,7 @@ def chart(chart_data) -> None:
             color="black",
             label="MuJoCo (friction contact)",
         )
-        for timestep, point in zip(TIMESTEPS, mujoco_points):
+        for timestep, point in zip(timesteps, mujoco_points):
             ax.annotate(f"{timestep:g} s", (point[0] * 1e3, point[1]), fontsize=7)
         ax.set_xlabel("wall time per simulated second (ms)")
         ax.set_ylabel("centre position error (m), max over the run")
@@ -249,7 +256,7 @@ def chart(chart_data) -> None:
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(RESULTS / "mujoco_work_precision.png", dpi=90)
+    fig.savefig(path, dpi=90)
     plt.close(fig)
 
 

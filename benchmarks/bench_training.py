@@ -1,9 +1,21 @@
-"""What makes PPO fastest here: the VecEnv and torch's thread count.
+"""Training speed: PPO on the main job's settings with SB3's ``DummyVecEnv`` against the SB3 VecEnv over the native
+vector env.
 
-``python benchmarks/bench_training.py`` writes ``benchmarks/results/training_speed.md``. (1) Stepping alone, 8
-environments with random actions: SB3's DummyVecEnv and SubprocVecEnv over single envs, and the native batched
-``RollingDiskVectorEnv`` at N = 8, the floor under any SB3 adapter around it (an adapter only adds conversions).
-(2) PPO wall time for 50,000 steps on ``upright`` with the default hyperparameters, per VecEnv and thread count.
+``python benchmarks/bench_training.py [--quick] [--out DIR] [--timesteps N]`` writes ``training_speed.md`` to DIR
+(default ``benchmarks/results``).
+
+The main job's settings: the ``RollingDiskUpright-v0`` block of ``agents/hyperparams/ppo.yml`` read as
+``agents.training`` reads it (8 envs, VecNormalize, PPO's hyperparameters and network), one torch thread, seed 0.
+Two VecEnvs give PPO the same 8 disks with the same seeds: SB3's ``make_vec_env(..., vec_env_cls=DummyVecEnv)``
+over single envs (what ``train.py`` uses), and ``rolling_disk_env.sb3.make_vec_env`` (``VecMonitor`` over
+``NativeVecEnv``: one compiled call steps the 8 disks).
+
+1. One step of the 8 envs with random actions, each VecEnv and the native vector env alone (no adapter), medians
+   of 5 runs of 2,000 steps timed in turn.
+2. ``PPO.learn`` for ``--timesteps`` steps (default 50,000; 4,096 with ``--quick``) without evaluations, a fresh
+   model and VecEnv per run, the two VecEnvs in turn after an untimed rollout with each, medians of 3 runs (1 with
+   ``--quick``); and whether the two trained the same parameters to the last bit (the adapter gives
+   ``DummyVecEnv``'s observations, rewards and dones, so they should).
 """
 
 from __future__ import annotations
@@ -13,69 +25,116 @@ import time
 
 import numpy as np
 import torch
-from _common import table, write_markdown
+from _common import arguments, medians_in_turns, table, write_markdown
 from stable_baselines3 import PPO
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 import rolling_disk_env as rd
+from agents.training import HYPERPARAMS, algorithm_kwargs, load_hyperparams, normalize_kwargs
+from rolling_disk_env import sb3
 
-N_ENVS = 8
-ENV_ID = f"rolling_disk_env:{rd.ENV_ID}"
+TASK = "upright"
+ENV_ID = rd.TASK_IDS[TASK]
+SEED = 0
 
 
-def stepping_seconds(step, actions, repeats=5) -> float:
-    samples = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        for action in actions:
-            step(action)
-        samples.append((time.perf_counter() - start) / len(actions))
-    return statistics.median(samples)
+def dummy(n_envs: int):
+    return make_vec_env(ENV_ID, n_envs=n_envs, seed=SEED, vec_env_cls=DummyVecEnv)
+
+
+def native(n_envs: int):
+    return sb3.make_vec_env(ENV_ID, n_envs=n_envs, seed=SEED)
+
+
+VEC_ENVS = {"DummyVecEnv (SB3, single envs)": dummy, "`rolling_disk_env.sb3.make_vec_env` (native)": native}
+
+
+def stepping_rows(n_envs: int, repeats: int) -> list[list[object]]:
+    actions = np.random.default_rng(0).uniform(-1, 1, (2000, n_envs, 2)).astype(np.float32)
+    envs = {name: make(n_envs) for name, make in VEC_ENVS.items()}
+    bare = rd.RollingDiskVectorEnv(num_envs=n_envs, max_episode_steps=rd.MAX_EPISODE_STEPS)
+    bare.reset(seed=SEED)
+    for env in envs.values():
+        env.reset()
+
+    def timer(step):
+        def run() -> float:
+            start = time.perf_counter()
+            for action in actions:
+                step(action)
+            return (time.perf_counter() - start) / len(actions)
+
+        run()
+        return run
+
+    runs = {name: timer(env.step) for name, env in envs.items()}
+    runs["native vector env alone (no adapter)"] = timer(bare.step)
+    seconds = medians_in_turns(runs, repeats)
+    for env in (*envs.values(), bare):
+        env.close()
+    reference = seconds[next(iter(VEC_ENVS))]
+    return [[name, f"{value * 1e6:.0f}", f"{value / reference:.2f}"] for name, value in seconds.items()]
+
+
+def learn(make, block: dict, timesteps: int) -> tuple[float, list[torch.Tensor]]:
+    """(wall seconds of ``PPO.learn``, the trained parameters) on a fresh VecEnv from ``make``."""
+    env = make(int(block.get("n_envs", 1)))
+    normalization = normalize_kwargs(block)
+    if normalization is not None:
+        env = VecNormalize(env, **normalization)
+    model = PPO(
+        block.get("policy", "MlpPolicy"), env, seed=SEED, device="cpu", verbose=0, **algorithm_kwargs("ppo", block)
+    )
+    start = time.perf_counter()
+    model.learn(total_timesteps=timesteps)
+    seconds = time.perf_counter() - start
+    env.close()
+    return seconds, [parameter.detach().clone() for parameter in model.policy.parameters()]
 
 
 def main() -> None:
-    rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, (2000, N_ENVS, 2)).astype(np.float32)
-    rows = []
-    for name, cls in (("DummyVecEnv", DummyVecEnv), ("SubprocVecEnv", SubprocVecEnv)):
-        vec = make_vec_env(ENV_ID, n_envs=N_ENVS, seed=0, vec_env_cls=cls)
-        vec.reset()
-        rows.append([name, f"{stepping_seconds(vec.step, actions) * 1e6:.0f}"])
-        vec.close()
-    native = rd.RollingDiskVectorEnv(num_envs=N_ENVS, max_episode_steps=rd.MAX_EPISODE_STEPS)
-    native.reset(seed=0)
-    rows.append(["RollingDiskVectorEnv (native, no adapter)", f"{stepping_seconds(native.step, actions) * 1e6:.0f}"])
-
-    ppo_rows = []
-    for name, cls, threads in (
-        ("DummyVecEnv", DummyVecEnv, 1),
-        ("DummyVecEnv", DummyVecEnv, 2),
-        ("SubprocVecEnv", SubprocVecEnv, 1),
-    ):
-        torch.set_num_threads(threads)
-        vec = make_vec_env(ENV_ID, n_envs=N_ENVS, seed=0, vec_env_cls=cls)
-        model = PPO("MlpPolicy", vec, n_steps=256, batch_size=256, seed=0, device="cpu", verbose=0)
-        start = time.perf_counter()
-        model.learn(50_000)
-        seconds = time.perf_counter() - start
-        ppo_rows.append([name, threads, f"{seconds:.1f}", f"{50_000 / seconds:.0f}"])
-        vec.close()
+    args = arguments(__doc__, timesteps=dict(type=int, default=None, help="PPO steps per run (default 50,000)"))
+    timesteps = args.timesteps or (4_096 if args.quick else 50_000)
+    repeats = 1 if args.quick else 3
+    torch.set_num_threads(1)
+    block = load_hyperparams(HYPERPARAMS / "ppo.yml", ENV_ID)
+    n_envs = int(block.get("n_envs", 1))
+    stepping = stepping_rows(n_envs, 5)
+    for make in VEC_ENVS.values():  # torch's and the engine's first-call costs, outside the timed runs
+        learn(make, block, 1)
+    samples = {name: [] for name in VEC_ENVS}
+    parameters = {}
+    for _ in range(repeats):
+        for name, make in VEC_ENVS.items():
+            seconds, parameters[name] = learn(make, block, timesteps)
+            samples[name].append(seconds)
+    medians = {name: statistics.median(values) for name, values in samples.items()}
+    reference = medians[next(iter(VEC_ENVS))]
+    ppo_rows = [
+        [name, f"{value:.1f}", f"{timesteps / value:.0f}", f"{value / reference:.2f}"]
+        for name, value in medians.items()
+    ]
+    first, second = parameters.values()
+    same = all(torch.equal(a, b) for a, b in zip(first, second))
     write_markdown(
         "training_speed",
-        "Training speed: VecEnv and threads for PPO",
+        "Training speed: PPO with DummyVecEnv and with the native vector env",
         "python benchmarks/bench_training.py",
         [
-            __doc__.split("\n\n", 1)[1].strip(),
+            __doc__.split("\n\n", 2)[2].strip(),
             "",
-            f"## (1) One step of {N_ENVS} environments (median of 5 x 2000)",
+            f"## (1) One step of {n_envs} environments, random actions",
             "",
-            table(["VecEnv", "us per step of all 8"], rows),
+            table(["VecEnv", f"us per step of all {n_envs}", "ratio to DummyVecEnv"], stepping),
             "",
-            "## (2) PPO, 50,000 steps, upright",
+            f"## (2) PPO, {timesteps:,} steps, {TASK}, 1 torch thread",
             "",
-            table(["VecEnv", "torch threads", "wall time (s)", "steps / s"], ppo_rows),
+            table(["VecEnv", "wall time (s)", "steps / s", "ratio to DummyVecEnv"], ppo_rows),
+            "",
+            "Same trained parameters with both VecEnvs, to the last bit: " + ("yes." if same else "no."),
         ],
+        out=args.out,
     )
 
 
