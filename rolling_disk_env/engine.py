@@ -98,9 +98,10 @@ def action_torques(actions, actuators, lanes, start, stop):
 @inline_kernel
 def remember(lanes, start, stop):
     """Keeps the states of disks start..stop-1 (rows PREVIOUS) and marks their integration RUNNING."""
-    for i in range(start, stop):
-        for j in range(8):
+    for j in range(8):  # the loop over disks innermost, where the compiler vectorizes it
+        for i in range(start, stop):
             lanes[PREVIOUS + j, i] = lanes[STATE + j, i]
+    for i in range(start, stop):
         lanes[CODE, i] = RUNNING
 
 
@@ -109,13 +110,13 @@ def keep_in_domain(lanes, start, stop):
     """Where a disk's new state is not finite or has left the model's domain, restores its state from the start of
     the period and marks it OUT_OF_DOMAIN."""
     for i in range(start, stop):
-        total = 0.0
-        for j in range(8):
-            total += lanes[STATE + j, i]
-        inside = math.isfinite(total) and abs(lanes[STATE + 3, i]) < LEAN_LIMIT
-        for j in range(8):
-            lanes[STATE + j, i] = lanes[STATE + j, i] if inside else lanes[PREVIOUS + j, i]
+        total = lanes[0, i] + lanes[1, i] + lanes[2, i] + lanes[3, i] + lanes[4, i] + lanes[5, i] + lanes[6, i]
+        inside = math.isfinite(total + lanes[7, i]) and abs(lanes[STATE + 3, i]) < LEAN_LIMIT
         lanes[CODE, i] = lanes[CODE, i] if inside else OUT_OF_DOMAIN
+    for j in range(8):
+        for i in range(start, stop):
+            outside = lanes[CODE, i] == OUT_OF_DOMAIN
+            lanes[STATE + j, i] = lanes[PREVIOUS + j, i] if outside else lanes[STATE + j, i]
 
 
 @inline_kernel
