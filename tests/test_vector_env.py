@@ -88,10 +88,8 @@ def test_each_autoreset_mode_behaves_exactly_like_sync_vector_env(task, mode):
     ("kwargs", "num_envs", "compared"),
     [pytest.param({"task": task}, 5, range(5), id=task) for task in sorted(TASKS)]
     + [pytest.param({"task": task, **RANDOMIZED_DISKS}, 5, range(5), id=f"{task}, random disks") for task in TASKS]
-    + [
-        pytest.param({"task": task}, engine.PARALLEL_FROM, (0, 1, engine.PARALLEL_FROM - 1), id=f"{task}, threads")
-        for task in TASKS
-    ],
+    # The threads run the same generated loop for every task: one task shows it.
+    + [pytest.param({"task": "circle"}, engine.PARALLEL_FROM, (0, 1, engine.PARALLEL_FROM - 1), id="circle, threads")],
 )
 def test_vector_env_equals_single_envs_to_the_last_bit(kwargs, num_envs, compared):
     steps = 300
