@@ -23,15 +23,15 @@ import numpy as np
 import torch
 import yaml
 from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
-from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.utils import LinearSchedule
-from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+from stable_baselines3.common.vec_env import VecNormalize
 from torch import nn
 from tqdm import tqdm
 
 import rolling_disk_env as rd
 from agents.baselines import BASELINES
 from agents.evaluate import ALGORITHMS, EVAL_SEED, NormalizedPolicy, PassiveAgent, Result, evaluate, results_table
+from rolling_disk_env.sb3 import make_vec_env as native_vec_env
 
 HYPERPARAMS = Path(__file__).parent / "hyperparams"
 """The zoo-format hyperparameter files, one per algorithm: ``<algo>.yml``."""
@@ -276,7 +276,9 @@ def train(
         hyperparams: one block of a zoo-format file, as in the YAML (:func:`load_hyperparams`); not modified.
         out: the run directory (created).
         timesteps: environment steps; default the block's ``n_timesteps``.
-        n_envs: training environments (``DummyVecEnv``); default the block's ``n_envs`` or 1.
+        n_envs: training environments, stepped together by the compiled engine
+            (:func:`rolling_disk_env.sb3.make_vec_env`: the transitions of ``DummyVecEnv`` over single envs, in less
+            time: ``benchmarks/bench_training.py``); default the block's ``n_envs`` or 1.
         seed: seeds the model and the training envs (the periodic evaluation's env gets ``seed + 1000``).
         eval_episodes: seeded episodes (seeds from ``agents.evaluate.EVAL_SEED``) of the final evaluation.
         threads: torch CPU threads (1 was fastest on 2 cores: ``benchmarks/bench_training.py``).
@@ -314,8 +316,8 @@ def train(
     (out / "command.txt").write_text(shlex.join([sys.executable, *sys.argv]) + "\n")
     (out / "algo.txt").write_text(algo + "\n")
 
-    env = make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs, vec_env_cls=DummyVecEnv)
-    eval_env = make_vec_env(env_id, n_envs=1, seed=seed + 1000, env_kwargs=env_kwargs)
+    env = native_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs)
+    eval_env = native_vec_env(env_id, n_envs=1, seed=seed + 1000, env_kwargs=env_kwargs)
     if normalization is not None:
         env = VecNormalize(env, **normalization)
         eval_env = VecNormalize(eval_env, **{**normalization, "training": False, "norm_reward": False})
