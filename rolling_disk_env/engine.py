@@ -11,13 +11,14 @@ Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Py
   map it over a batch, serially or on numba's threads;
 * the batch loops of the model API (:mod:`rolling_disk_env.dynamics`, :func:`rolling_disk_env.simulate`).
 
-The single env and the vector env call the same per-disk function, so they give the same transitions to the last
-bit. Batches use rows: a state batch is (N, 8), float64.
+The single env and the vector env call the same generated functions, so they give the same transitions to the last
+bit. A batch keeps its disks in a *lanes* array (:data:`LANES` rows of N floats, updated in place), over which the
+integration vectorizes; the model API takes rows of states, (N, 8) float64.
 
 Threads: a batch of at least :data:`PARALLEL_FROM` disks runs on numba's threads (``NUMBA_NUM_THREADS``, by default
-one per core); smaller batches, and every batch in a process where ``NUMBA_NUM_THREADS=1``, run serially. The loops
-never run at the same time as SB3's torch computations, so the two do not compete for the cores; in
-``SubprocVecEnv`` children each env steps one disk, serially.
+one per core); smaller batches, and every batch in a process where ``NUMBA_NUM_THREADS=1``, run serially on one core.
+By default no batch is that large (see :data:`PARALLEL_FROM`): an env never competes with SB3's torch threads, a
+Ray trial or ``SubprocVecEnv``'s other children for the cores.
 """
 
 from __future__ import annotations
@@ -43,8 +44,12 @@ ADAPTIVE = METHODS.index("dopri5")
 MAX_ADAPTIVE_SUBSTEPS = 10_000
 """Steps (accepted or rejected) that ``"dopri5"`` may take in one control period or output interval; past it the
 episode ends with ``"substep_limit"`` (``simulate`` raises) instead of looping on."""
-PARALLEL_FROM = 1024
-"""Batches of this many disks or more run on numba's threads (measured: ``benchmarks/bench_env.py``)."""
+PARALLEL_FROM = 1 << 20
+"""Batches of this many disks or more run on numba's threads. Measured on the 2-core machines this project runs on,
+shared with other jobs, the threaded loop lost to the serial one at every N up to 16384, and collapsed (8 to 16 ms a
+step) while another process held the cores (``benchmarks/bench_env.py``): so by default a batch steps serially,
+vectorized. Lower it (``rolling_disk_env.engine.PARALLEL_FROM = 4096``, before making the env) on a machine with
+idle cores."""
 BLOCK = 256
 """Disks a thread steps at a time in the parallel loop."""
 

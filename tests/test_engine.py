@@ -151,7 +151,8 @@ def test_importing_the_envs_compiles_nothing_until_a_config_is_used():
     assert subprocess.check_output([sys.executable, "-c", code], cwd=ROOT, text=True).split() == ["1", "0", "0"]
 
 
-def test_the_parallel_loop_runs_at_large_batches_only():
+def test_the_parallel_loop_runs_at_large_batches_only(monkeypatch):
+    monkeypatch.setattr(engine, "PARALLEL_FROM", 300)
     small = rd.RollingDiskVectorEnv(num_envs=engine.PARALLEL_FROM - 1)
     large = rd.RollingDiskVectorEnv(num_envs=engine.PARALLEL_FROM)
     assert not small._batch.parallel

@@ -34,12 +34,14 @@ class Outputs:
     status: np.ndarray
 
     @classmethod
-    def empty(cls, num_envs: int, observation_size: int, terms: int) -> Outputs:
+    def empty(cls, num_envs: int, observation_size: int, terms: int, zeroed: bool = True) -> Outputs:
+        """New arrays: zeros, or (``zeroed=False``, for a step, which writes every disk's row) uninitialized."""
+        make = np.zeros if zeroed else np.empty
         return cls(
-            np.zeros((num_envs, observation_size), dtype=np.float32),
-            np.zeros((num_envs, engine.TERMS + terms)),
-            np.zeros((num_envs, 3), dtype=bool),
-            np.zeros(num_envs, dtype=np.int8),
+            make((num_envs, observation_size), dtype=np.float32),
+            make((num_envs, engine.TERMS + terms)),
+            make((num_envs, 3), dtype=bool),
+            make(num_envs, dtype=np.int8),
         )
 
 
@@ -94,8 +96,9 @@ class DiskBatch:
         """The disks' constants (m, g, r), (3, N): a view of the lanes."""
         return self.lanes[engine.MASS : engine.RADIUS + 1]
 
-    def outputs(self) -> Outputs:
-        return Outputs.empty(self.num_envs, self.observation_size, self.terms)
+    def outputs(self, zeroed: bool = True) -> Outputs:
+        """New output arrays for the batch (see :meth:`Outputs.empty`)."""
+        return Outputs.empty(self.num_envs, self.observation_size, self.terms, zeroed)
 
     def reset(
         self, mask: np.ndarray, out: Outputs, rngs: np.ndarray | None = None, states: np.ndarray | None = None

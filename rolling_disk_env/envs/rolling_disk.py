@@ -61,20 +61,38 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     | 6 | heading-rate error dpsi - dpsi* (rad/s) | -100 | 100 |
     | 7 | target lean theta* of the episode's circle (rad) | -pi/2 | pi/2 |
 
+    ``task="goto"`` (beta: the target's bearing from the rolling direction ``(sin psi, -cos psi)``, positive to the
+    left):
+
+    | Num | Observation | Min | Max |
+    |-----|-------------|-----|-----|
+    | 0 | horizontal distance d from the centre to the target (m) | -20 | 20 |
+    | 1 | sin beta | -1 | 1 |
+    | 2 | cos beta | -1 | 1 |
+    | 3 | lean theta (rad) | -pi/2 | pi/2 |
+    | 4 | lean rate dtheta (rad/s) | -100 | 100 |
+    | 5 | spin-rate error dphi - dphi* to the cruise speed, dphi* = 2 m/s / r (rad/s) | -100 | 100 |
+    | 6 | heading rate dpsi (rad/s) | -100 | 100 |
+
     ## Rewards
 
     A weighted sum of named terms, each in [-1, 1] per step, reported flat in ``info["reward_<term>"]`` (as
     Gymnasium's MuJoCo envs report ``reward_ctrl``), so that batching wrappers stack them; the weights are the task
     option ``reward_weights``. ``upright``: ``alive`` +1, ``lean`` -min((theta / 0.5)^2, 1), ``speed``
     -min(((dphi - dphi*) / dphi*)^2, 1), ``effort`` -mean(action^2); weights 1, 1, 0.5, 0.1. ``circle``: ``alive``
-    +1, ``radial`` -min(e_r^2, 1) (e_r in m), ``speed`` as above, ``effort``; weights 1, 1, 0.3, 0.1.
+    +1, ``radial`` -min(e_r^2, 1) (e_r in m), ``speed`` as above, ``effort``; weights 1, 1, 0.3, 0.1. ``goto``:
+    ``progress`` the centre's velocity towards the target over the cruise speed (clipped), ``aim``
+    -min(miss^2, 1) (miss: how far in m the disk would pass from the target rolling straight on), ``upright``
+    -min((theta / 0.8)^2, 1), ``effort``, ``reached`` +1 on the step the target is reached, ``fallen`` -1 on the
+    step the disk falls or lifts off; weights 1, 0.2, 0.5, 0.1, 100, 100.
 
     ## Starting State
 
     ``upright``: at the origin, lean and rates drawn from ``initial_ranges`` (default theta in [-0.05, 0.05] rad,
     dtheta and dpsi in [-0.1, 0.1] rad/s, dphi in [0.8, 1.2] rad/s: slower than the self-stabilizing
     sqrt(g / 3r) = 1.81 rad/s, so a passive disk falls); phi and psi uniform. ``circle``: near a circle of radius R
-    drawn from [3, 6] m, tangent to it, vertical and rolling straight at the target speed (2 m/s). The task
+    drawn from [3, 6] m, tangent to it, vertical and rolling straight at the target speed (2 m/s). ``goto``: as
+    ``upright``, with a target 3 to 8 m away at any bearing from the initial rolling direction. The task
     modules document every range. ``reset(options={"state": x0})`` starts from an exact state instead.
 
     ## Episode End
@@ -83,7 +101,8 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     | reason | when |
     |--------|------|
-    | `"fallen"` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle``) |
+    | `"fallen"` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle`` and ``goto``) |
+    | `"reached"` | ``goto``: the centre's ground projection came within 0.25 m of the target (a success) |
     | `"lifted_off"` | the normal force N vanished: rolling on the plane is over (checked at every step) |
     | `"slipped"` | with ``friction_coefficient`` mu set: the contact needs more, \\|lambda\\| / N > mu |
     | `"out_of_domain"` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
@@ -97,7 +116,8 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     N, the friction coefficient a real contact needs to roll so), the ``"reward_<term>"`` keys (after a step) and
     ``"is_success"``: whether the episode counts as a success *if it ended at this step*, so True from the first
     step for a disk that has not fallen (``upright``: not fallen; ``circle``: not fallen and a mean radial error over
-    the last half of the episode of at most 0.25 m). SB3's ``Monitor`` and ``EvalCallback`` read it at the end.
+    the last half of the episode of at most 0.25 m), while on ``goto`` it is False until the step that reaches the
+    target. SB3's ``Monitor`` and ``EvalCallback`` read it at the end.
 
     ## Arguments
 
@@ -110,7 +130,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     | Parameter | Type | Default | Description |
     |-----------|------|---------|-------------|
-    | `task` | str or Task | `"upright"` | `"upright"` or `"circle"` (or a `Task` instance) |
+    | `task` | str or Task | `"upright"` | `"upright"`, `"circle"` or `"goto"` (or a `Task` instance) |
     | `actuators` | tuple of str | `("spin", "steer")` | enabled torques; `()` gives a passive disk |
     | `dt` | float | `0.02` | control period, s (also `1 / render_fps`) |
     | `integrator` | str | `"rk4"` | `"euler"`, `"symplectic_euler"`, `"rk4"` or `"dopri5"` (error-controlled) |

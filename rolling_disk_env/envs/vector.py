@@ -37,8 +37,8 @@ class RollingDiskVectorEnv(VectorEnv):
     Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)`` (or ``seed[i]`` from a list), as
     ``SyncVectorEnv`` does, and draws its episodes exactly as a single env with that seed would: both run the same
     compiled kernels, so the transitions are equal to the last bit. ``reset(options={"state": X})`` takes initial
-    states of shape (N, 8). A batch of ``engine.PARALLEL_FROM`` disks or more steps on numba's threads. Rendering is
-    not offered: render one disk with the single env.
+    states of shape (N, 8). The batch steps serially, vectorized over the disks (threads: ``engine.PARALLEL_FROM``).
+    Rendering is not offered: render one disk with the single env.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -145,7 +145,7 @@ class RollingDiskVectorEnv(VectorEnv):
                 f"sub-environments {np.flatnonzero(self._ended).tolist()} have ended and autoreset is disabled: "
                 'reset them with reset(options={"reset_mask": mask}) first'
             )
-        out = self._batch.outputs()
+        out = self._batch.outputs(zeroed=False)  # the step writes every row
         resetting = self._ended if mode == AutoresetMode.NEXT_STEP else self._none
         bad = self._batch.step(actions, out)
         if bad >= 0:
