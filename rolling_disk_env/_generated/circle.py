@@ -24,7 +24,7 @@ from rolling_disk_env.jit import inline_kernel, kernel, parallel_kernel, prange
 from rolling_disk_env.tasks.base import REACHED, RUNNING
 import rolling_disk_env.tasks.circle as task
 
-TASK_SOURCE = "b5ce40b3b8d2adeb514624aa175a2b70f3f22ff8e9ab4282aecb1f0304d83014"
+TASK_SOURCE = "6debf59b0d1ecefdf1244cabb4e2e033004b8638db6ee92f164ad50d7f115c8c"
 """The sha256 of the task module these steps were generated from."""
 
 

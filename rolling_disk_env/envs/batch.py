@@ -6,6 +6,10 @@ The single env is a batch of one; the vector env a batch of N. Both call the sam
 
 from __future__ import annotations
 
+import ctypes
+import functools
+import os
+import platform
 from dataclasses import dataclass
 
 import numba
@@ -14,6 +18,30 @@ import numpy as np
 from rolling_disk_env import engine
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.tasks.base import TRACK
+
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+"""glibc's mallopt parameter numbers."""
+HEAP_FROM = 1024
+"""Batches of this many disks or more make the process keep freed memory (:func:`keep_freed_memory`)."""
+
+
+@functools.cache
+def keep_freed_memory() -> bool:
+    """Asks glibc's malloc to serve allocations up to 64 MiB from the heap and to keep up to 128 MiB of freed heap.
+
+    Every step returns fresh arrays (the info block is 3 MB at N = 16384). By default glibc maps large allocations
+    afresh and unmaps them when freed, so each step page-faults its outputs back in: measured at N = 16384
+    (``circle``), a step took 3.3 ms instead of 1.6 ms. This sets ``M_MMAP_THRESHOLD`` and ``M_TRIM_THRESHOLD`` (what
+    the environment variables ``MALLOC_MMAP_THRESHOLD_`` and ``MALLOC_TRIM_THRESHOLD_`` set, which are left alone if
+    the user set either) once per process; elsewhere than glibc it does nothing. Returns whether it was set.
+    """
+    if {"MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_"} & os.environ.keys() or platform.libc_ver()[0] != "glibc":
+        return False
+    try:
+        libc = ctypes.CDLL(None)
+        return bool(libc.mallopt(_M_MMAP_THRESHOLD, 64 * 2**20) and libc.mallopt(_M_TRIM_THRESHOLD, 128 * 2**20))
+    except (OSError, AttributeError):
+        return False
 
 
 @dataclass
@@ -64,6 +92,8 @@ class DiskBatch:
         self._reset = steps.reset
         self.num_envs = num_envs
         self.parallel = num_envs >= engine.PARALLEL_FROM and numba.get_num_threads() > 1
+        if num_envs >= HEAP_FROM:
+            keep_freed_memory()
         self.terms = len(task.reward_weights)
         self.observation_size = len(task.observation_names)
         # Per disk.

@@ -31,6 +31,7 @@ from rolling_disk_env.tasks.base import (
     Task,
     penalty,
 )
+from rolling_disk_env.trig import sincos
 
 # Positions in this task's arrays.
 TARGET_SPEED, FALL_LEAN, CENTRE_X, CENTRE_Y = range(4)  # settings
@@ -176,7 +177,7 @@ def radial_error(x, goal):
 def observe(x, goal, settings):
     dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
     distance = math.sqrt(dx * dx + dy * dy)
-    sin_psi, cos_psi = math.sin(x[PSI]), math.cos(x[PSI])
+    sin_psi, cos_psi = sincos(x[PSI])
     # delta = psi - angle - pi, with (cos angle, sin angle) = (dx, dy) / distance.
     scale = 1.0 / (distance + 1e-9)
     return (
