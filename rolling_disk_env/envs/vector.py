@@ -14,6 +14,9 @@ from rolling_disk_env import engine, pcg64
 from rolling_disk_env.envs.batch import DiskBatch, Outputs
 from rolling_disk_env.envs.config import EnvConfig, action_error
 
+_REASONS = np.array(engine.TERMINATIONS, dtype=object)
+"""``info["termination"]`` by termination code."""
+
 
 class RollingDiskVectorEnv(VectorEnv):
     """N independent rolling disks stepped together by the compiled engine.
@@ -193,8 +196,7 @@ class RollingDiskVectorEnv(VectorEnv):
     def _reasons(self, status: np.ndarray, terminated: np.ndarray) -> np.ndarray:
         """``info["termination"]``: the reason's name where ``terminated``, None elsewhere (an object array)."""
         reasons = np.full(self.num_envs, None, dtype=object)
-        for i in np.flatnonzero(terminated).tolist():
-            reasons[i] = engine.TERMINATIONS[status[i]]
+        reasons[terminated] = _REASONS[status[terminated]]
         return reasons
 
     def _final(self, out: Outputs, ended: np.ndarray) -> dict:
