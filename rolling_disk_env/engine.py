@@ -29,7 +29,6 @@ import inspect
 import math
 from types import ModuleType
 
-import numba
 import numpy as np
 
 from rolling_disk_env._generated import kernels
@@ -326,7 +325,6 @@ def advance(method, states, torques, disks, dt, sizes, rtol, atol, status):
     """Advances each row of ``states`` (full or lean model) by ``dt`` seconds with the integrator ``method`` (a code):
     one fixed step, or dopri5 steps under the tolerances from the step sizes ``sizes`` (updated). ``status`` gets
     OUT_OF_DOMAIN for a row that left the model's domain, SUBSTEP_LIMIT for one dopri5 gave up on, else RUNNING."""
-    numba.literally(method)  # compiles the branches of this method only
     lean = states.shape[1] == 4
     for i in range(states.shape[0]):
         u0, u1, m, g, r, x = torques[i, 0], torques[i, 1], disks[i, 0], disks[i, 1], disks[i, 2], states[i]
