@@ -26,9 +26,8 @@ def test_contact_forces_are_mass_times_the_centres_acceleration_along_a_driven_t
     _, states = rd.simulate(x0, 0.5, h, method="dop853", torque=torque, params=PARAMS, rtol=1e-13, atol=1e-13)
     centres = np.column_stack([states[:, 0], states[:, 1], PARAMS.radius * np.cos(states[:, 3])])
     # Fourth-order central differences.
-    acceleration = (
-        -centres[4:] + 16 * centres[3:-1] - 30 * centres[2:-2] + 16 * centres[1:-3] - centres[:-4]
-    ) / (12 * h * h)
+    stencil = -centres[4:] + 16 * centres[3:-1] - 30 * centres[2:-2] + 16 * centres[1:-3] - centres[:-4]
+    acceleration = stencil / (12 * h * h)
     inner = states[2:-2]
     lambdas = rd.contact_force(inner, np.tile(torque, (len(inner), 1)), PARAMS)
     normal = rd.normal_force(inner, np.tile(torque, (len(inner), 1)), PARAMS)
