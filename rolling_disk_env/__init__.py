@@ -34,7 +34,7 @@ MAX_EPISODE_STEPS = 500
 TASK_SPECS = (
     ("upright", "RollingDiskUpright-v0", 450.0),
     ("circle", "RollingDiskCircle-v0", 450.0),
-    ("goto", "RollingDiskGoto-v0", 250.0),
+    ("goto", "RollingDiskGoto-v0", 150.0),
 )
 """One id per task, with the task fixed: ``(task, id, reward_threshold)``. A new task's id is one more line."""
 TASK_IDS = {task: env_id for task, env_id, _ in TASK_SPECS}

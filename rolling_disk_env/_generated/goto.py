@@ -24,7 +24,7 @@ from rolling_disk_env.jit import inline_kernel, kernel, parallel_kernel, prange
 from rolling_disk_env.tasks.base import REACHED, RUNNING
 import rolling_disk_env.tasks.goto as task
 
-TASK_SOURCE = "844039f3e420b8b3707fd267cf0ee8a0397628ad4e0d3751ea3091bbf20dea97"
+TASK_SOURCE = "4a1a6877420ddfa63287346a595a1da43d0b8d5a18ebb8d6af7c3005259869d0"
 """The sha256 of the task module these steps were generated from."""
 
 
@@ -104,7 +104,7 @@ def step_euler_block(start, stop, actions, lanes, goals, steps, error_sums, conf
     engine.contact_lanes(lanes, start, stop)
     for i in range(start, stop):
         x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3], goals[i, 4])
         steps[i] += 1
         engine.report(info, i, lanes)
         code = int(lanes[CODE, i])
@@ -172,7 +172,7 @@ def step_symplectic_euler_block(start, stop, actions, lanes, goals, steps, error
     engine.contact_lanes(lanes, start, stop)
     for i in range(start, stop):
         x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3], goals[i, 4])
         steps[i] += 1
         engine.report(info, i, lanes)
         code = int(lanes[CODE, i])
@@ -240,7 +240,7 @@ def step_rk4_block(start, stop, actions, lanes, goals, steps, error_sums, config
     engine.contact_lanes(lanes, start, stop)
     for i in range(start, stop):
         x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3], goals[i, 4])
         steps[i] += 1
         engine.report(info, i, lanes)
         code = int(lanes[CODE, i])
@@ -307,7 +307,7 @@ def step_dopri5_block(start, stop, actions, lanes, goals, steps, error_sums, con
     engine.contact_lanes(lanes, start, stop)
     for i in range(start, stop):
         x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3])
+        goal = (goals[i, 0], goals[i, 1], goals[i, 2], goals[i, 3], goals[i, 4])
         steps[i] += 1
         engine.report(info, i, lanes)
         code = int(lanes[CODE, i])

@@ -82,9 +82,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     -min(((dphi - dphi*) / dphi*)^2, 1), ``effort`` -mean(action^2); weights 1, 1, 0.5, 0.1. ``circle``: ``alive``
     +1, ``radial`` -min(e_r^2, 1) (e_r in m), ``speed`` as above, ``effort``; weights 1, 1, 0.3, 0.1. ``goto``:
     ``progress`` the centre's velocity towards the target over the cruise speed (clipped), ``aim``
-    -min(miss^2, 1) (miss: how far in m the disk would pass from the target rolling straight on), ``upright``
-    -min((theta / 0.8)^2, 1), ``effort``, ``reached`` +1 on the step the target is reached, ``fallen`` -1 on the
-    step the disk falls or lifts off; weights 1, 0.2, 0.5, 0.1, 100, 100.
+    -min(miss^2, 1) (miss: how far in m the disk would pass from the target rolling straight on), ``speed`` as above
+    (to the cruise speed), ``upright`` -min((theta / 0.8)^2, 1), ``effort``, ``reached`` +1 on the step the target
+    is reached, ``fallen`` -1 on the step the disk falls or lifts off; weights 1, 0.2, 0.3, 0.5, 0.1, 100, 100.
 
     ## Starting State
 
