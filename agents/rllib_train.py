@@ -8,7 +8,7 @@
 Needs ``pip install torch==2.13.0 -e ".[rllib]"`` (which pins gymnasium 1.2.2). Without ``--address`` it starts an
 embedded Ray on this machine. Each of the ``--env-runners`` Ray actors (one CPU each) steps one
 :class:`rolling_disk_env.RollingDiskVectorEnv` of ``--envs-per-runner`` disks, made by ``gym.make_vec`` in the
-``vector_entry_point`` mode (one numpy batch, no loop over sub-envs), and runs the policy on the whole batch; the
+``vector_entry_point`` mode (one compiled batch, no loop over sub-envs), and runs the policy on the whole batch; the
 learner runs in this process, on the CPU.
 
 Hyperparameters are those of the task's block in ``agents/hyperparams/ppo.yml`` (SB3's PPO), under RLlib's names
