@@ -3,20 +3,21 @@
 Run ``python -m rolling_disk_env.codegen`` after changing ``derivation.py``, an integrator's tableau below, or a task
 module; ``tests/test_codegen.py`` fails while the committed files differ from what this module writes.
 
-Two modules are written, both plain Python on floats (``math``), readable next to the paper, and what numba compiles
+The files are plain Python on floats, readable next to the paper, and what numba compiles
 (:mod:`rolling_disk_env.jit`; ``NUMBA_DISABLE_JIT=1`` runs them interpreted):
 
 * ``_generated/kernels.py``: the model for one disk. Each model (``state``: the full model on
   ``x = (c1, c2, phi, theta, psi, dphi, dtheta, dpsi)``; ``lean``: the reduced model on
   ``y = (theta, dphi, dtheta, dpsi)``) has its derivative and one step of each integrator of :data:`TABLEAUS` with the
   stages written out; the lean model also has its Jacobians, and the full model its ``diagnostics`` (energy, contact
-  forces). Expressions are rewritten in ``sin`` and ``cos`` of theta and psi only and passed through
-  common-subexpression elimination, so one evaluation of the derivative calls four trigonometric functions.
-* ``_generated/steps.py``: for each task of :data:`rolling_disk_env.tasks.TASKS` and each integrator, the fused step
-  of one disk through a control period (integration, domain and contact checks, the task's observation, reward terms,
-  termination and success) and the loops that map it over a batch of disks, serial and parallel, written from the
-  template :data:`STEP_TEMPLATE`. It records a hash of each task module's source, so that editing a task makes it
-  stale (numba's cache would not see the change otherwise: it tracks only the file a function is defined in).
+  forces, normal force). Expressions are rewritten in ``sin`` and ``cos`` of theta and psi only and passed through
+  common-subexpression elimination, so one evaluation of the derivative takes two calls of
+  :func:`rolling_disk_env.trig.sincos`.
+* ``_generated/<task>.py``, one per task of :data:`rolling_disk_env.tasks.TASKS`: for each integrator, the fused step
+  of a batch of disks through a control period (torques, integration and contact forces vectorized over the disks,
+  then disk by disk the domain and contact checks and the task's termination, reward terms, success and
+  observation), serial and parallel, and the reset, written from :data:`STEP_TEMPLATE` and :data:`RESET_TEMPLATE`.
+  Each records a hash of its task module's source, so that the engine refuses steps generated from an older task.
 """
 
 from __future__ import annotations

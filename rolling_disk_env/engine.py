@@ -1,4 +1,4 @@
-"""The compiled engine: what one disk runs in a control period, and the loops that run it for N disks.
+"""The compiled engine: what a batch of disks runs in a control period, and the model API's loops.
 
 Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Python on floats and arrays:
 
@@ -7,8 +7,8 @@ Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Py
 * the pieces every task's step shares, below: the action's torques, the error-controlled integration of a control
   period (``"dopri5"``), the contact checks, the domain check, the success rule;
 * the fused step of each task (``_generated/<task>.py``, written by :mod:`rolling_disk_env.codegen` from a template):
-  one disk through a control period, then its observation, reward terms, termination and info, and the loops that
-  map it over a batch, serially or on numba's threads;
+  a batch of disks through a control period (integration vectorized over the disks), then each disk's observation,
+  reward terms, termination and info, serially or on numba's threads;
 * the batch loops of the model API (:mod:`rolling_disk_env.dynamics`, :func:`rolling_disk_env.simulate`).
 
 The single env and the vector env call the same generated functions, so they give the same transitions to the last
