@@ -358,67 +358,58 @@ def generate_kernels() -> str:
     return header + "\n" + imports + "\n\n" + "\n\n".join(functions)
 
 
-STEP_TEMPLATE = """
-@inline_kernel
-def step_{method}_block(start, stop, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
-    bounds, observations, info, flags, status):
-    \"\"\"One control period of disks start..stop-1 with {method}: the action's torques, the integration and the
-    contact forces (loops over the disks, vectorized), then disk by disk the task's termination, reward terms,
-    success and observation.\"\"\"
-    engine.action_torques(actions, actuators, lanes, start, stop)
-    engine.remember(lanes, start, stop)
-{advance}
-    engine.keep_in_domain(lanes, start, stop)
-    engine.contact_lanes(lanes, start, stop)
-    for i in range(start, stop):
-        x = {state}
+FINISH_TEMPLATE = """\
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
+{store_state}
+        contact = engine.contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
+            lanes[RADIUS, i])
         goal = {goal}
+        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
+        code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[i] += 1
-        engine.report(info, i, lanes)
-        code = int(lanes[CODE, i])
-        if code == RUNNING:
-            code = engine.contact_status(lanes[CONTACT + 3, i], lanes[CONTACT + 4, i], config[FRICTION])
-        if code == RUNNING:
-            code = task.termination(x, goal, settings)
-        engine.reward(info, i, task.reward_terms(x, lanes[EFFORT, i], goal, settings), weights)
-        status[i] = code
-        flags[i, TERMINATED] = code != RUNNING
-        flags[i, TRUNCATED] = 0 < config[MAX_STEPS] <= steps[i]
-        flags[i, SUCCESS] = {success}
-        engine.observe(observations, i, task.observe(x, goal, settings), bounds)
+{report}
+        terms = task.reward_terms(x, lanes[EFFORT, i], goal, settings)
+{terms}
+        info[REWARD, i] = {reward}
+        observation = task.observe(x, goal, settings)
+{observe}{tracking}
+        flags[TERMINATED, i] = code != RUNNING
+        flags[TRUNCATED, i] = 0 < config[MAX_STEPS] <= steps[i]
+        flags[SUCCESS, i] = {success}"""
+"""The end of a control period, for disk i of one task: the end of the loop body of every fused step (the fields in
+braces are filled in per task). Written out in the loop, not called: numba counts references to the arrays passed
+to a function, and those calls keep a loop from vectorizing."""
 
+STEP_TEMPLATE = """
 
 @kernel
-def step_{method}(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags, status):
-    \"\"\"Steps every disk (see :func:`step_{method}_block`), serially; returns the first disk with a non-finite
+def step_{method}(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
+    info, flags):
+    \"\"\"One control period of every disk with {method}: the action's torques, then, in one loop over the disks
+    (which the compiler vectorizes), the integration and the disk's outputs. Returns the first disk with a non-finite
     action (then nothing is stepped), or -1.\"\"\"
     bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        step_{method}_block(0, lanes.shape[1], actions, lanes, goals, steps, error_sums, config, actuators,
-            {settings}, weights, bounds, observations, info, flags, status)
-    return bad
-
-
-@parallel_kernel
-def step_{method}_parallel(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags, status):
-    \"\"\":func:`step_{method}` on numba's threads, in blocks of ``engine.BLOCK`` disks.\"\"\"
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        disks = lanes.shape[1]
-        for block in prange((disks + BLOCK - 1) // BLOCK):
-            step_{method}_block(block * BLOCK, min(disks, (block + 1) * BLOCK), actions, lanes, goals, steps,
-                error_sums, config, actuators, {settings}, weights, bounds, observations, info, flags, status)
-    return bad
+    if bad >= 0:
+        return bad
+    settings = {settings}
+    disks = actions.shape[0]
+    # The loop over the disks runs over every column, 0..shape[1], padding included: numba addresses a row of a
+    # C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do not
+    # overlap, and vectorizes it.
+    start, stop = 0, lanes.shape[1]
+    engine.action_torques(actions, actuators, lanes, 0, disks)
+{advance}
+{finish}{track}
+    engine.transpose(info, OBSERVATION, observations, 0, disks)
+    return -1
 """
-"""The fused step of one task with one integrator, for a batch of disks (the fields in braces are filled in per task
-and integrator). The task's kernels take and return tuples of floats."""
+"""The fused step of one task with one integrator, for a batch of disks."""
 
 RESET_TEMPLATE = """
 @kernel
 def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds,
-    observations, info, flags, status):
+    observations, info, flags):
     \"\"\"Starts an episode in each disk of ``mask``: its disk constants (those randomized, in the order m, g, r),
     then the task's goal and initial state from the values drawn in its ranges, all from the episode's uniforms in
     [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of ``numpy.random.Generator.random``), or taken as
@@ -426,7 +417,7 @@ def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, 
     state.\"\"\"
     options = {settings}
     values = np.empty(ranges.shape[0])
-    for i in range(lanes.shape[1]):
+    for i in range(mask.shape[0]):
         if not mask[i]:
             continue
         if rngs.shape[0]:
@@ -446,55 +437,61 @@ def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, 
         if not np.isnan(given[i, 0]):
             x = {given}
         for j in range(len(goal)):
-            goals[i, j] = goal[j]
-        for j in range(8):
-            lanes[STATE + j, i] = x[j]
+            goals[j, i] = goal[j]
+{store_state}
         lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
         lanes[STEP_SIZE, i] = config[PERIOD]
-        contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
-        for j in range(5):
-            lanes[CONTACT + j, i] = contact[j]
         steps[i] = 0
-        error_sums[i, 0] = 0.0
-        engine.report(info, i, lanes)
-        info[i, REWARD:] = 0.0
-        status[i] = RUNNING
-        flags[i, TERMINATED] = False
-        flags[i, TRUNCATED] = False
-        flags[i, SUCCESS] = {success_at_start}
-        engine.observe(observations, i, task.observe(x, goal, options), bounds)
+        error_sums[0, i] = 0.0
+        contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
+        code = RUNNING
+{report}
+        info[REWARD, i] = 0.0
+        for j in range(TERMS, OBSERVATION):
+            info[j, i] = 0.0
+        observation = task.observe(x, goal, options)
+        for j in range(len(observation)):
+            info[OBSERVATION + j, i] = observations[i, j] = min(max(observation[j], -bounds[j]), bounds[j])
+        flags[TERMINATED, i] = False
+        flags[TRUNCATED, i] = False
+        flags[SUCCESS, i] = {success_at_start}
 """
 """Starting episodes of one task."""
 
 _ADVANCE = {
     "dopri5": """    for i in range(start, stop):
-        x = {state_lanes}
-        x, lanes[STEP_SIZE, i], ok = engine.advance_adaptive(
+        x = {state}
+        new, lanes[STEP_SIZE, i], ok = engine.advance_adaptive(
             x, config[PERIOD], lanes[STEP_SIZE, i], lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i],
             lanes[GRAVITY, i], lanes[RADIUS, i], config[RTOL], config[ATOL]
         )
-{store}
-        lanes[CODE, i] = RUNNING if ok else SUBSTEP_LIMIT""",
+        x, code = engine.in_domain(x, new, RUNNING if ok else SUBSTEP_LIMIT)""",
     "fixed": """    substeps = int(config[SUBSTEPS])
     dt = config[PERIOD] / substeps
-    for _ in range(substeps):
-        for i in range(start, stop):
-            x = {state_lanes}
-            x = kernels.state_{method}_step(
-                x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
-            )
-{store}""",
+    if substeps > 1:  # all substeps but the last, from the state at the start of the period, kept
+        engine.remember(lanes, start, stop)
+        for _ in range(substeps - 1):
+            for i in range(start, stop):
+                x = {state}
+                x = kernels.state_{method}_step(
+                    x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
+                )
+{store_substep}
+    for i in range(start, stop):
+        x = {state}
+        new = kernels.state_{method}_step(
+            x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
+        )
+        kept = {kept}
+        x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)""",
 }
 _SUCCESS = {
     "survive": ("code == RUNNING", "True"),
-    "track": (
-        "code == RUNNING and engine.tracking_success(\n"
-        "            error_sums, i, steps[i], task.tracking_error(x, goal, settings), config[SUCCESS_BOUND]\n"
-        "        )",
-        "True",
-    ),
+    "track": ("code == RUNNING", "True"),
     "reach": ("code == REACHED", "False"),
 }
+"""Per success rule: the flag SUCCESS after a step (for TRACK, before :func:`rolling_disk_env.engine.track`), and
+at the start of an episode."""
 
 
 def generate_steps(task) -> str:
@@ -505,25 +502,47 @@ def generate_steps(task) -> str:
     module = inspect.getmodule(task)
     rule = {SURVIVE: "survive", TRACK: "track", REACH: "reach"}[task.success]
     success, success_at_start = _SUCCESS[rule]
-    state_lanes = _row_tuple("lanes", 8, column=True)
+    terms, observations = len(task.default_reward_weights), len(task.observation_names)
     fields = {
-        "{state}": state_lanes,
+        "{state}": _row_tuple("lanes", 8, column=True),
+        "{kept}": _row_tuple("lanes", 8, column=True, first="PREVIOUS + "),
         "{given}": _row_tuple("given", 8),
-        "{goal}": _row_tuple("goals", len(task.goal_names)),
+        "{goal}": _row_tuple("goals", len(task.goal_names), column=True),
         "{settings}": _row_tuple("settings", len(task.setting_names), row=False),
         "{success_at_start}": success_at_start,
+        "{store_state}": _stores("lanes", _ITEMS[:8], _items("x", 8), 8),
+        "{report}": _stores("info", [*_ITEMS[:8], *_REPORTED], [*_items("x", 8), *_items("contact", 5), "code"], 8),
     }
+    finish = _fill(
+        FINISH_TEMPLATE,
+        {
+            **fields,
+            "{terms}": _stores("info", [f"TERMS + {j}" for j in range(terms)], _items("terms", terms), 8),
+            "{reward}": " + ".join(f"weights[{j}] * terms[{j}]" for j in range(terms)),
+            "{observe}": "\n".join(
+                f"        info[OBSERVATION + {j}, i] = min(max(observation[{j}], -bounds[{j}]), bounds[{j}])"
+                for j in range(observations)
+            ),
+            "{tracking}": "\n        lanes[TRACKING_ERROR, i] = task.tracking_error(x, goal, settings)"
+            if rule == "track"
+            else "",
+            "{success}": success,
+        },
+    )
+    track = (
+        "\n    engine.track(error_sums, lanes, steps, flags, 0, disks, config[SUCCESS_BOUND])"
+        if rule == "track"
+        else ""
+    )
     steps = []
     for tableau in TABLEAUS:
         advance = _ADVANCE["dopri5" if tableau.error else "fixed"]
-        indent = " " * (8 if tableau.error else 12)
-        store = "\n".join(f"{indent}lanes[{j}, i] = x[{j}]" for j in range(8))
-        advance = advance.replace("{store}", store).replace("{state_lanes}", state_lanes)
-        template = STEP_TEMPLATE.replace("{advance}", advance)
-        steps.append(_fill(template, {**fields, "{success}": success, "{method}": tableau.name}))
+        template = STEP_TEMPLATE.replace("{advance}", advance).replace("{finish}", finish).replace("{track}", track)
+        store_substep = _stores("lanes", _ITEMS[:8], _items("x", 8), 16)
+        steps.append(_fill(template, {**fields, "{store_substep}": store_substep, "{method}": tableau.name}))
     header = _HEADER.format(
-        title=f"The fused steps of task {task.name!r}: one disk, or a batch, through a control period.",
-        source=f"``{module.__name__.replace('.', '/')}.py`` or the template in\n``rolling_disk_env/codegen.py``",
+        title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
+        source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
     )
     imports = "\n".join(
         [
@@ -532,29 +551,57 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ATOL, BLOCK, CODE, CONTACT, EFFORT, FRICTION, GRAVITY, MASS, MAX_STEPS, PERIOD, RADIUS, REWARD, RTOL,",
-            "    STATE, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED,",
-            "    TRUNCATED,",
+            "    ATOL, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, MASS, MAX_STEPS, NORMAL_FORCE,",
+            "    PERIOD, PREVIOUS, RADIUS, REQUIRED_FRICTION, REWARD, RTOL, STATUS, STEP_SIZE, SUBSTEP_LIMIT,",
+            "    SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,",
             ")",
-            "from rolling_disk_env.jit import inline_kernel, kernel, parallel_kernel, prange",
+            "from rolling_disk_env.jit import kernel",
             "from rolling_disk_env.tasks.base import REACHED, RUNNING",
             f"import {module.__name__} as task",
             "",
             f'TASK_SOURCE = "{source_hash(module)}"',
             '"""The sha256 of the task module these steps were generated from."""',
+            f"OBSERVATION = TERMS + {terms}",
+            '"""The first row of the observation in an info block, after the reward terms."""',
         ]
     )
     return header + "\n" + imports + "\n\n" + _fill(RESET_TEMPLATE, fields) + "".join(steps)
 
 
-def _row_tuple(array: str, size: int, row: bool = True, column: bool = False) -> str:
-    """``(array[i, 0], array[i, 1], ...)``, or ``(array[0, i], ...)`` (``column``), or ``(array[0], ...)`` (not
-    ``row``): a tuple of ``size`` floats, which numba keeps in registers."""
+_ITEMS = [str(j) for j in range(16)]
+_REPORTED = ["ENERGY", "LAMBDA1", "LAMBDA2", "NORMAL_FORCE", "REQUIRED_FRICTION", "STATUS"]
+"""Rows of an info block after the state, written from the contact values and the termination code."""
+
+
+def _items(name: str, size: int) -> list[str]:
+    """``["name[0]", "name[1]", ...]``."""
+    return [f"{name}[{j}]" for j in range(size)]
+
+
+def _row_tuple(array: str, size: int, row: bool = True, column: bool = False, first: str = "") -> str:
+    """``(array[i, 0], array[i, 1], ...)``, or ``(array[0, i], ...)`` (``column``, from row ``first`` + 0), or
+    ``(array[0], ...)`` (not ``row``): a tuple of ``size`` floats, which numba keeps in registers."""
     if column:
-        items = [f"{array}[{j}, i]" for j in range(size)]
+        items = [f"{array}[{first}{j}, i]" for j in range(size)]
     else:
         items = [f"{array}[i, {j}]" if row else f"{array}[{j}]" for j in range(size)]
-    return f"({', '.join(items)}{',' if size == 1 else ''})"
+    one_line = f"({', '.join(items)}{',' if size == 1 else ''})"
+    if len(one_line) <= 110:
+        return one_line
+    rows = [", ".join(items[j : j + 4]) + "," for j in range(0, size, 4)]
+    return "(\n" + "".join(f"            {line}\n" for line in rows) + "        )"
+
+
+def _stores(array: str, rows: list[str], sources: list[str], indent: int) -> str:
+    """Lines writing ``sources`` (expressions) into column i of ``array`` at ``rows``, four a line (two for long
+    names)."""
+    lines = []
+    per_line = 4 if max(map(len, rows)) <= 9 else 2
+    for start in range(0, len(rows), per_line):
+        chunk = range(start, min(start + per_line, len(rows)))
+        targets = ", ".join(f"{array}[{rows[j]}, i]" for j in chunk)
+        lines.append(" " * indent + f"{targets} = {', '.join(sources[j] for j in chunk)}")
+    return "\n".join(lines)
 
 
 def _fill(template: str, fields: dict[str, str]) -> str:

@@ -43,14 +43,6 @@ ADAPTIVE = METHODS.index("dopri5")
 MAX_ADAPTIVE_SUBSTEPS = 10_000
 """Steps (accepted or rejected) that ``"dopri5"`` may take in one control period or output interval; past it the
 episode ends with ``"substep_limit"`` (``simulate`` raises) instead of looping on."""
-PARALLEL_FROM = 1 << 20
-"""Batches of this many disks or more run on numba's threads. Measured on the 2-core machines this project runs on,
-shared with other jobs, the threaded loop lost to the serial one at every N up to 16384, and collapsed (8 to 16 ms a
-step) while another process held the cores (``benchmarks/bench_env.py``): so by default a batch steps serially,
-vectorized. Lower it (``rolling_disk_env.engine.PARALLEL_FROM = 4096``, before making the env) on a machine with
-idle cores."""
-BLOCK = 256
-"""Disks a thread steps at a time in the parallel loop."""
 
 OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT = range(2, 6)
 """Termination codes of a disk after a step, beside the tasks' RUNNING (0), FALLEN (1) and REACHED (6)
@@ -59,22 +51,22 @@ TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "subst
 """``info["termination"]`` of each code: the task's fall (or goal), the integrator leaving the model's domain, the
 contact needing more friction than ``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""
 
-STATE, PREVIOUS = 0, 8
-TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, CODE = range(16, 24)
-CONTACT = 24
-LANES = 29
-"""Rows of a batch's *lanes* array (rows of N floats, one column per disk), which the vectorized loops read and
-write in place: the state (8 rows from STATE), the state at the start of the control period (8 rows from PREVIOUS),
-the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step size (s), the integration's code
-(RUNNING, OUT_OF_DOMAIN or SUBSTEP_LIMIT) and the 5 :func:`contact` values from CONTACT. One array: the compiler
-vectorizes a loop over disks only when it can rule out that its stores overlap its loads."""
+STATE = 0
+TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_ERROR = range(8, 16)
+PREVIOUS = 16
+LANES = 24
+"""Rows of a batch's *lanes* array (rows of N floats, one column per disk), which the step reads and writes in place:
+the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step size (s),
+the task's tracking error after the last step, and, with substeps, the state at the start of the control period
+(8 rows from PREVIOUS). A loop over the disks reads and writes rows, so it vectorizes."""
 
-ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD = range(8, 14)
-"""Columns of an info block (floats, one row per disk) after the 8 state columns: energy (J), contact force (N),
-normal force (N), the friction coefficient the contact needs, the reward; then the reward terms from column TERMS."""
-TERMS = 14
+ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD, STATUS = range(8, 15)
+"""Rows of an info block (rows of N floats, one column per disk) after the 8 state rows: energy (J), contact force
+(N), normal force (N), the friction coefficient the contact needs, the reward, the termination code
+(:data:`TERMINATIONS`); then the reward terms from row TERMS, then the observation (clipped to its bounds)."""
+TERMS = 15
 TERMINATED, TRUNCATED, SUCCESS = range(3)
-"""Columns of a flags block (booleans, one row per disk)."""
+"""Rows of a flags block (booleans, one column per disk)."""
 
 PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_RULE, SUCCESS_BOUND = range(8)
 """Entries of an env's ``config`` array: control period (s), fixed substeps, dopri5's tolerances, the friction
@@ -100,43 +92,38 @@ def action_torques(actions, actuators, lanes, start, stop):
             lanes[row, i] = limit * value
 
 
+@kernel
+def period_start(x, kept, substeps):
+    """A disk's state at the start of the control period: ``x``, its state before the last substep, when there is
+    one substep; else ``kept``, its state kept by :func:`remember` (both read, then one chosen: no branch in a loop
+    over disks)."""
+    one = substeps == 1
+    return (
+        x[0] if one else kept[0], x[1] if one else kept[1], x[2] if one else kept[2], x[3] if one else kept[3],
+        x[4] if one else kept[4], x[5] if one else kept[5], x[6] if one else kept[6], x[7] if one else kept[7],
+    )  # fmt: skip
+
+
 @inline_kernel
 def remember(lanes, start, stop):
-    """Keeps the states of disks start..stop-1 (rows PREVIOUS) and marks their integration RUNNING."""
+    """Keeps the states of disks start..stop-1 in their rows PREVIOUS (before the substeps of a period)."""
     for j in range(8):  # the loop over disks innermost, where the compiler vectorizes it
         for i in range(start, stop):
             lanes[PREVIOUS + j, i] = lanes[STATE + j, i]
-    for i in range(start, stop):
-        lanes[CODE, i] = RUNNING
 
 
-@inline_kernel
-def keep_in_domain(lanes, start, stop):
-    """Where a disk's new state is not finite or has left the model's domain, restores its state from the start of
-    the period and marks it OUT_OF_DOMAIN."""
-    for i in range(start, stop):
-        total = lanes[0, i] + lanes[1, i] + lanes[2, i] + lanes[3, i] + lanes[4, i] + lanes[5, i] + lanes[6, i]
-        inside = math.isfinite(total + lanes[7, i]) and abs(lanes[STATE + 3, i]) < LEAN_LIMIT
-        lanes[CODE, i] = lanes[CODE, i] if inside else OUT_OF_DOMAIN
-    for j in range(8):
-        for i in range(start, stop):
-            outside = lanes[CODE, i] == OUT_OF_DOMAIN
-            lanes[STATE + j, i] = lanes[PREVIOUS + j, i] if outside else lanes[STATE + j, i]
-
-
-@inline_kernel
-def contact_lanes(lanes, start, stop):
-    """Writes the :func:`contact` values of disks start..stop-1, at their states under their torques, into their
-    lanes (rows from CONTACT)."""
-    for i in range(start, stop):
-        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        tau_spin, tau_steer = lanes[TAU_SPIN, i], lanes[TAU_STEER, i]
-        values = contact(x, tau_spin, tau_steer, lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
-        lanes[CONTACT, i] = values[0]
-        lanes[CONTACT + 1, i] = values[1]
-        lanes[CONTACT + 2, i] = values[2]
-        lanes[CONTACT + 3, i] = values[3]
-        lanes[CONTACT + 4, i] = values[4]
+@kernel
+def in_domain(start, x, code):
+    """``(x, code)`` after integrating from the state ``start`` to ``x``: where ``x`` is not finite or has left the
+    model's domain, ``start`` and OUT_OF_DOMAIN instead (branch-free, so that a loop over disks vectorizes)."""
+    total = x[0] + x[1] + x[2] + x[3] + x[4] + x[5] + x[6] + x[7]
+    inside = math.isfinite(total) and abs(x[3]) < LEAN_LIMIT
+    kept = (
+        x[0] if inside else start[0], x[1] if inside else start[1], x[2] if inside else start[2],
+        x[3] if inside else start[3], x[4] if inside else start[4], x[5] if inside else start[5],
+        x[6] if inside else start[6], x[7] if inside else start[7],
+    )  # fmt: skip
+    return kept, (code if inside else OUT_OF_DOMAIN)
 
 
 @inline_kernel
@@ -149,29 +136,12 @@ def contact(x, tau_spin, tau_steer, m, g, r):
 
 
 @inline_kernel
-def report(info, i, lanes):
-    """Copies disk i's state and contact values from its lanes into its row of ``info``."""
-    for j in range(8):
-        info[i, j] = lanes[STATE + j, i]
-    for j in range(5):
-        info[i, ENERGY + j] = lanes[CONTACT + j, i]
-
-
-@inline_kernel
-def observe(observations, i, values, high):
-    """Writes disk i's observation ``values`` into ``observations``, clipped to [-high, high]."""
-    for j in range(len(values)):
-        observations[i, j] = min(max(values[j], -high[j]), high[j])
-
-
-@inline_kernel
-def reward(info, i, terms, weights):
-    """Writes disk i's reward ``terms`` and their sum weighted by ``weights`` into its row of ``info``."""
-    total = 0.0
-    for j in range(len(terms)):
-        info[i, TERMS + j] = terms[j]
-        total += weights[j] * terms[j]
-    info[i, REWARD] = total
+def transpose(info, first, observations, start, stop):
+    """Copies the observations of disks start..stop-1 from their columns of ``info`` (rows from ``first``) into their
+    rows of ``observations`` (N, observation size)."""
+    for j in range(observations.shape[1]):
+        for i in range(start, stop):
+            observations[i, j] = info[first + j, i]
 
 
 @kernel
@@ -184,14 +154,10 @@ def first_nonfinite(actions) -> int:
     return -1
 
 
-@kernel
+@inline_kernel
 def contact_status(normal, required, friction) -> int:
     """LIFTED_OFF when the normal force vanishes, SLIPPED when the contact needs more than ``friction``, else 0."""
-    if not normal > 0.0:
-        return LIFTED_OFF
-    if required > friction:
-        return SLIPPED
-    return RUNNING
+    return LIFTED_OFF if not normal > 0.0 else (SLIPPED if required > friction else RUNNING)
 
 
 @kernel
@@ -261,12 +227,15 @@ def steady_circle(radius, speed, g, r):
 
 
 @inline_kernel
-def tracking_success(error_sums, i, steps, error, bound) -> bool:
-    """Records disk i's tracking ``error`` at step ``steps`` in its running sums ``error_sums[i]`` and says whether
-    its mean over the last half of the episode is within ``bound``."""
-    error_sums[i, steps] = error_sums[i, steps - 1] + error
-    half = steps // 2
-    return (error_sums[i, steps] - error_sums[i, half]) / max(1, steps - half) <= bound
+def track(error_sums, lanes, steps, flags, start, stop, bound):
+    """The success rule TRACK for disks start..stop-1 that are still running (flag SUCCESS set): adds each one's
+    tracking error of this step (row TRACKING_ERROR) to its running sums (its column of ``error_sums``, a row per
+    step) and keeps its flag where the mean error over the last half of the episode is within ``bound``."""
+    for i in range(start, stop):
+        if flags[SUCCESS, i]:
+            step, half = steps[i], steps[i] // 2
+            error_sums[step, i] = error_sums[step - 1, i] + lanes[TRACKING_ERROR, i]
+            flags[SUCCESS, i] = (error_sums[step, i] - error_sums[half, i]) / max(1, step - half) <= bound
 
 
 # The model API's loops (rolling_disk_env.dynamics and rolling_disk_env.integrators): rows of states, torques (N, 2)

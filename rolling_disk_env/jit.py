@@ -1,4 +1,4 @@
-"""How the package compiles: every compiled function is declared with :data:`kernel` or :data:`parallel_kernel`.
+"""How the package compiles: every compiled function is declared with :data:`kernel` or :data:`inline_kernel`.
 
 Kernels are plain Python functions of floats and numpy arrays, compiled by numba on first call and cached on disk
 (``cache=True``): in ``__pycache__`` next to the module, or, where that is not writable (a read-only site-packages),
@@ -9,6 +9,11 @@ Numba judges a cached kernel fresh by the source of the file that defines it, bu
 the kernels it calls from other files (a task's step calls the generated model, the engine, the task module) and the
 module constants it reads. So the package's kernels are cached under a stamp of *all* the package's source files
 (:class:`PackageCacheLocator`): editing any of them recompiles, instead of running stale code.
+
+A loop over a batch vectorizes only if LLVM can rule out, by checks run before the loop, that the arrays it writes
+overlap those it reads (numba cannot tell LLVM that they never do). The fused step reads and writes a few dozen rows,
+more pairs than LLVM checks by default (128): :func:`_allow_memory_checks` raises that limit, for this process's
+compilations (the checks are comparisons of addresses, a few hundred nanoseconds a call; they change no result).
 
 Arithmetic is IEEE: no ``fastmath``, so a compiled kernel gives the interpreted result to the last bit, and the same
 kernel serves one disk and a batch. Division by zero gives inf or NaN as in numpy (``error_model="numpy"``) instead of
@@ -23,6 +28,7 @@ import functools
 import hashlib
 from pathlib import Path
 
+import llvmlite.binding
 import numba
 from numba.core import caching
 
@@ -70,12 +76,18 @@ def _use_package_stamps() -> None:
 
 _use_package_stamps()
 
+MEMORY_CHECKS = 4096
+"""Runtime overlap checks LLVM may emit before a vectorized loop (LLVM's default: 128)."""
+
+
+def _allow_memory_checks() -> None:
+    llvmlite.binding.set_option("rolling_disk_env", f"-vectorize-memory-check-threshold={MEMORY_CHECKS}")
+
+
+_allow_memory_checks()
+
 kernel = numba.njit(cache=True, error_model="numpy")
-"""Compiles a function of one disk (or a serial loop), cached."""
+"""Compiles a function of one disk, or a loop over a batch of disks, cached."""
 inline_kernel = numba.njit(cache=True, error_model="numpy", inline="always")
 """Compiles a function that numba inlines into each caller: a per-disk body called in a loop with many arrays, whose
 arguments a real call would pass one by one for every disk."""
-parallel_kernel = numba.njit(cache=True, error_model="numpy", parallel=True)
-"""Compiles a loop over a batch whose ``prange`` iterations run on numba's threads (``NUMBA_NUM_THREADS``)."""
-prange = numba.prange
-"""``range`` whose iterations a :data:`parallel_kernel` spreads over threads (in a :data:`kernel`, plain range)."""

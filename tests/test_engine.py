@@ -15,6 +15,7 @@ from gymnasium.utils import seeding
 
 import rolling_disk_env as rd
 from rolling_disk_env import engine, jit, pcg64
+from rolling_disk_env.envs.batch import columns
 from rolling_disk_env.tasks import TASKS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -151,15 +152,20 @@ def test_importing_the_envs_compiles_nothing_until_a_config_is_used():
     assert subprocess.check_output([sys.executable, "-c", code], cwd=ROOT, text=True).split() == ["1", "0", "0"]
 
 
-def test_the_parallel_loop_runs_at_large_batches_only(monkeypatch):
-    monkeypatch.setattr(engine, "PARALLEL_FROM", 300)
-    small = rd.RollingDiskVectorEnv(num_envs=engine.PARALLEL_FROM - 1)
-    large = rd.RollingDiskVectorEnv(num_envs=engine.PARALLEL_FROM)
-    assert not small._batch.parallel
-    assert large._batch.parallel == (jit.numba.get_num_threads() > 1)
-    large.reset(seed=0)
-    observations, *_ = large.step(np.zeros((engine.PARALLEL_FROM, 2), dtype=np.float32))
-    assert np.all(np.isfinite(observations))
+@pytest.mark.parametrize("num_envs", [1, 255, 256, 4096, 4100, 16384])
+def test_a_large_batch_has_rows_of_an_odd_number_of_cache_lines(num_envs):
+    width = columns(num_envs)
+    if num_envs < 256:
+        assert width == num_envs
+    else:
+        assert num_envs <= width <= num_envs + 16 and width % 8 == 0 and (width // 8) % 2 == 1
+    env = rd.RollingDiskVectorEnv(num_envs=num_envs)
+    assert env._batch.lanes.shape == (engine.LANES, width)
+    observations, infos = env.reset(seed=0)
+    assert observations.shape == (num_envs, 4) and infos["energy"].shape == (num_envs,)
+    observations, rewards, terminated, _, infos = env.step(np.zeros((num_envs, 2), dtype=np.float32))
+    assert observations.shape == (num_envs, 4) and rewards.shape == terminated.shape == (num_envs,)
+    assert np.all(np.isfinite(observations)) and np.all(np.isfinite(rewards))
 
 
 def test_gym_make_env_is_the_engines_env():

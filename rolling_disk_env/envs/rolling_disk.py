@@ -183,11 +183,11 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._started = True
         m, g, r = batch.disks[:, 0].tolist()
         self.params = DiskParams(mass=m, radius=r, gravity=g) if self.config.params_ranges else self.config.params
-        self.goal = dict(zip(self.task.goal_names, batch.goals[0].tolist()))
+        self.goal = dict(zip(self.task.goal_names, batch.goals[:, 0].tolist()))
         self._track = None if self.render_mode is None else deque([tuple(batch.states[:2, 0])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
-        return self._out.observations[0].copy(), self._info(terminated=False, stepped=False)
+        return self._out.observations[0].copy(), self._info(self._out.info[:, 0].tolist(), False, stepped=False)
 
     def step(self, action):
         if not self._started:
@@ -196,13 +196,14 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         out = self._out
         if self._batch.step(actions, out) >= 0:
             raise ValueError(f"action must be finite numbers, got {action!r}")
-        terminated = bool(out.flags[0, engine.TERMINATED])
-        info = self._info(terminated, stepped=True)
+        values = out.info[:, 0].tolist()
+        terminated = bool(out.flags[engine.TERMINATED, 0])
+        info = self._info(values, terminated, stepped=True)
         if self._track is not None:
             self._track.append(tuple(self._batch.states[:2, 0]))
         if self.render_mode == "human":
             self.render()
-        return out.observations[0].copy(), self._out.info[0, engine.REWARD].item(), terminated, False, info
+        return out.observations[0].copy(), values[engine.REWARD], terminated, False, info
 
     def _actions(self, action) -> np.ndarray:
         """The action as the engine takes it, a row of float32 (finiteness is checked by the engine)."""
@@ -213,20 +214,20 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(error)
         return np.asarray(action, dtype=np.float32).reshape(1, -1)
 
-    def _info(self, terminated: bool, stepped: bool) -> dict:
-        values = self._out.info[0].tolist()
+    def _info(self, values: list[float], terminated: bool, stepped: bool) -> dict:
+        """The info from the disk's column of the info block, as a list."""
         info = {
             "state": np.array(values[:8]),
             "energy": values[engine.ENERGY],
             "contact_force": np.array(values[engine.LAMBDA1 : engine.LAMBDA2 + 1]),
             "normal_force": values[engine.NORMAL_FORCE],
             "required_friction": values[engine.REQUIRED_FRICTION],
-            "is_success": bool(self._out.flags[0, engine.SUCCESS]),
+            "is_success": bool(self._out.flags[engine.SUCCESS, 0]),
         }
         if stepped:
             info.update(zip(self._term_keys, values[engine.TERMS :]))
         if terminated:
-            info["termination"] = engine.TERMINATIONS[self._out.status[0]]
+            info["termination"] = engine.TERMINATIONS[int(values[engine.STATUS])]
         return info
 
     def render(self):

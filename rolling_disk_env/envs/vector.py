@@ -148,20 +148,20 @@ class RollingDiskVectorEnv(VectorEnv):
                 f"sub-environments {np.flatnonzero(self._ended).tolist()} have ended and autoreset is disabled: "
                 'reset them with reset(options={"reset_mask": mask}) first'
             )
-        out = self._batch.outputs(zeroed=False)  # the step writes every row
+        out = self._batch.outputs(zeroed=False)  # the step writes every column
         resetting = self._ended if mode == AutoresetMode.NEXT_STEP else self._none
         bad = self._batch.step(actions, out)
         if bad >= 0:
             raise ValueError(f"actions must be finite numbers, got {actions[bad]!r} for sub-environment {bad}")
         if resetting.any():
             self._batch.reset(resetting, out, self._rngs)
-        rewards = out.info[:, engine.REWARD].copy()
-        terminated = out.flags[:, engine.TERMINATED].copy()
-        truncated = out.flags[:, engine.TRUNCATED].copy()
+        info, flags = out.info, out.flags
+        rewards, terminated, truncated = info[engine.REWARD], flags[engine.TERMINATED], flags[engine.TRUNCATED]
         ended = terminated | truncated
         stepped = ~resetting
         if mode == AutoresetMode.SAME_STEP and ended.any():
             final = self._final(out, ended)
+            rewards, terminated, truncated = rewards.copy(), terminated.copy(), truncated.copy()
             self._batch.reset(ended, out, self._rngs)
             infos = self._infos(out, None, stepped & ~ended)
             infos.update(final)
@@ -177,37 +177,37 @@ class RollingDiskVectorEnv(VectorEnv):
         info = out.info
         everyone = np.ones(self.num_envs, dtype=bool) if present is None else present
         infos = {
-            "state": info[:, :8],
-            "energy": info[:, engine.ENERGY],
-            "contact_force": info[:, engine.LAMBDA1 : engine.LAMBDA2 + 1],
-            "normal_force": info[:, engine.NORMAL_FORCE],
-            "required_friction": info[:, engine.REQUIRED_FRICTION],
-            "is_success": out.flags[:, engine.SUCCESS],
+            "state": info[: engine.STATE + 8].T,
+            "energy": info[engine.ENERGY],
+            "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
+            "normal_force": info[engine.NORMAL_FORCE],
+            "required_friction": info[engine.REQUIRED_FRICTION],
+            "is_success": out.flags[engine.SUCCESS],
         }
         infos = {key: value for name, value in infos.items() for key, value in ((name, value), (f"_{name}", everyone))}
         if stepped.any():
             for row, key in enumerate(self._term_keys, start=engine.TERMS):
-                infos[key], infos[f"_{key}"] = info[:, row], stepped
-        terminated = out.flags[:, engine.TERMINATED] & stepped
+                infos[key], infos[f"_{key}"] = info[row], stepped
+        terminated = out.flags[engine.TERMINATED] & stepped
         if terminated.any():
-            infos["termination"], infos["_termination"] = self._reasons(out.status, terminated), terminated
+            infos["termination"], infos["_termination"] = self._reasons(info[engine.STATUS], terminated), terminated
         return infos
 
     def _reasons(self, status: np.ndarray, terminated: np.ndarray) -> np.ndarray:
-        """``info["termination"]``: the reason's name where ``terminated``, None elsewhere (an object array)."""
-        reasons = np.full(self.num_envs, None, dtype=object)
-        reasons[terminated] = _REASONS[status[terminated]]
+        """``info["termination"]``: the name of the termination code ``status`` where ``terminated``, None elsewhere
+        (an object array)."""
+        reasons = np.empty(self.num_envs, dtype=object)  # None everywhere
+        reasons[terminated] = _REASONS[status[terminated].astype(np.intp)]
         return reasons
 
     def _final(self, out: Outputs, ended: np.ndarray) -> dict:
         """SAME_STEP's ``final_obs`` and ``final_info`` of the sub-environments that ended, taken from ``out`` before
         they are reset."""
-        final_obs = np.full(self.num_envs, None, dtype=object)
+        final_obs = np.empty(self.num_envs, dtype=object)  # None everywhere
         for i in np.flatnonzero(ended).tolist():
             final_obs[i] = out.observations[i].copy()
         kept = Outputs.empty(self.num_envs, out.observations.shape[1], len(self._term_keys))
-        kept.info[ended] = out.info[ended]
-        kept.flags[ended] = out.flags[ended]
-        kept.status[ended] = out.status[ended]
+        kept.info[:, ended] = out.info[:, ended]
+        kept.flags[:, ended] = out.flags[:, ended]
         final_info = self._infos(kept, ended, ended)
         return {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info, "_final_info": ended.copy()}
