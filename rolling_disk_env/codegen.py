@@ -362,21 +362,20 @@ FINISH_TEMPLATE = """\
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
 {store_state}
-        contact = engine.contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
-            lanes[RADIUS, i])
+        contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = {goal}
         code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
-        steps[i] += 1
+        steps[k, i] += 1
 {report}
-        terms = task.reward_terms(x, lanes[EFFORT, i], goal, settings)
+        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
 {terms}
-        info[REWARD, i] = {reward}
+        info[REWARD, k, i] = {reward}
         observation = task.observe(x, goal, settings)
 {observe}{tracking}
-        flags[TERMINATED, i] = code != RUNNING
-        flags[TRUNCATED, i] = 0 < config[MAX_STEPS] <= steps[i]
-        flags[SUCCESS, i] = {success}"""
+        flags[TERMINATED, k, i] = code != RUNNING
+        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[SUCCESS, k, i] = {success}"""
 """The end of a control period, for disk i of one task: the end of the loop body of every fused step (the fields in
 braces are filled in per task). Written out in the loop, not called: numba counts references to the arrays passed
 to a function, and those calls keep a loop from vectorizing."""
@@ -384,25 +383,45 @@ to a function, and those calls keep a loop from vectorizing."""
 STEP_TEMPLATE = """
 
 @kernel
-def step_{method}(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
-    info, flags):
-    \"\"\"One control period of every disk with {method}: the action's torques, then, in one loop over the disks
-    (which the compiler vectorizes), the integration and the disk's outputs. Returns the first disk with a non-finite
-    action (then nothing is stepped), or -1.\"\"\"
-    bad = engine.first_nonfinite(actions)
-    if bad >= 0:
-        return bad
+def step_{method}_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    \"\"\"One control period with {method} of the disks of share k of the batch: the action's torques, then, in one
+    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+
+    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
+    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
+    that the rows the loop reads and writes do not overlap.\"\"\"
     settings = {settings}
-    disks = actions.shape[0]
-    # The loop over the disks runs over every column, 0..shape[1], padding included: numba addresses a row of a
-    # C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do not
-    # overlap, and vectorizes it.
-    start, stop = 0, lanes.shape[1]
-    engine.action_torques(actions, actuators, lanes, 0, disks)
+    disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
+    engine.action_torques(actions, actuators, lanes, k, disks)
 {advance}
 {finish}{track}
-    engine.transpose(info, OBSERVATION, observations, 0, disks)
-    return -1
+    engine.transpose(info, OBSERVATION, observations, k)
+
+
+@kernel
+def step_{method}(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
+    info, flags):
+    \"\"\"Steps a batch of one share (see :func:`step_{method}_share`); returns the first disk with a non-finite action
+    (then nothing is stepped), or -1.\"\"\"
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        step_{method}_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+            observations, info, flags)
+    return bad
+
+
+@parallel_kernel
+def step_{method}_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    \"\"\":func:`step_{method}` for a batch of several shares, a share per thread.\"\"\"
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        for k in prange(lanes.shape[1]):
+            step_{method}_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+                bounds, observations, info, flags)
+    return bad
 """
 """The fused step of one task with one integrator, for a batch of disks."""
 
@@ -442,7 +461,7 @@ def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, 
         lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
         lanes[STEP_SIZE, i] = config[PERIOD]
         steps[i] = 0
-        error_sums[0, i] = 0.0
+        error_sums[i, 0] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
 {report}
@@ -459,29 +478,29 @@ def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, 
 """Starting episodes of one task."""
 
 _ADVANCE = {
-    "dopri5": """    for i in range(start, stop):
+    "dopri5": """    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = {state}
-        new, lanes[STEP_SIZE, i], ok = engine.advance_adaptive(
-            x, config[PERIOD], lanes[STEP_SIZE, i], lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i],
-            lanes[GRAVITY, i], lanes[RADIUS, i], config[RTOL], config[ATOL]
+        new, lanes[STEP_SIZE, k, i], ok = engine.advance_adaptive(
+            x, config[PERIOD], lanes[STEP_SIZE, k, i], tau_spin, tau_steer, m, g, r, config[RTOL], config[ATOL]
         )
         x, code = engine.in_domain(x, new, RUNNING if ok else SUBSTEP_LIMIT)""",
     "fixed": """    substeps = int(config[SUBSTEPS])
     dt = config[PERIOD] / substeps
     if substeps > 1:  # all substeps but the last, from the state at the start of the period, kept
-        engine.remember(lanes, start, stop)
+        engine.remember(lanes, k)
         for _ in range(substeps - 1):
-            for i in range(start, stop):
-                x = {state}
-                x = kernels.state_{method}_step(
-                    x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
-                )
+            for i in range(lanes.shape[2]):
+                tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+                m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+                x = kernels.state_{method}_step({state}, dt, tau_spin, tau_steer, m, g, r)
 {store_substep}
-    for i in range(start, stop):
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = {state}
-        new = kernels.state_{method}_step(
-            x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
-        )
+        new = kernels.state_{method}_step(x, dt, tau_spin, tau_steer, m, g, r)
         kept = {kept}
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)""",
 }
@@ -503,34 +522,40 @@ def generate_steps(task) -> str:
     rule = {SURVIVE: "survive", TRACK: "track", REACH: "reach"}[task.success]
     success, success_at_start = _SUCCESS[rule]
     terms, observations = len(task.default_reward_weights), len(task.observation_names)
-    fields = {
-        "{state}": _row_tuple("lanes", 8, column=True),
-        "{kept}": _row_tuple("lanes", 8, column=True, first="PREVIOUS + "),
+    reported = [*_items("x", 8), *_items("contact", 5), "code"]
+    fields = {  # the reset's arrays have a column per disk: [row, i]
         "{given}": _row_tuple("given", 8),
-        "{goal}": _row_tuple("goals", len(task.goal_names), column=True),
         "{settings}": _row_tuple("settings", len(task.setting_names), row=False),
         "{success_at_start}": success_at_start,
         "{store_state}": _stores("lanes", _ITEMS[:8], _items("x", 8), 8),
-        "{report}": _stores("info", [*_ITEMS[:8], *_REPORTED], [*_items("x", 8), *_items("contact", 5), "code"], 8),
+        "{report}": _stores("info", [*_ITEMS[:8], *_REPORTED], reported, 8),
+    }
+    step_fields = {  # the step's come in shares: [row, k, i]
+        **fields,
+        "{state}": _row_tuple("lanes", 8, column="k, i"),
+        "{kept}": _row_tuple("lanes", 8, column="k, i", first="PREVIOUS + "),
+        "{goal}": _row_tuple("goals", len(task.goal_names), column="k, i"),
+        "{store_state}": _stores("lanes", _ITEMS[:8], _items("x", 8), 8, "k, i"),
+        "{report}": _stores("info", [*_ITEMS[:8], *_REPORTED], reported, 8, "k, i"),
     }
     finish = _fill(
         FINISH_TEMPLATE,
         {
-            **fields,
-            "{terms}": _stores("info", [f"TERMS + {j}" for j in range(terms)], _items("terms", terms), 8),
+            **step_fields,
+            "{terms}": _stores("info", [f"TERMS + {j}" for j in range(terms)], _items("terms", terms), 8, "k, i"),
             "{reward}": " + ".join(f"weights[{j}] * terms[{j}]" for j in range(terms)),
             "{observe}": "\n".join(
-                f"        info[OBSERVATION + {j}, i] = min(max(observation[{j}], -bounds[{j}]), bounds[{j}])"
+                f"        info[OBSERVATION + {j}, k, i] = min(max(observation[{j}], -bounds[{j}]), bounds[{j}])"
                 for j in range(observations)
             ),
-            "{tracking}": "\n        lanes[TRACKING_ERROR, i] = task.tracking_error(x, goal, settings)"
+            "{tracking}": "\n        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)"
             if rule == "track"
             else "",
             "{success}": success,
         },
     )
     track = (
-        "\n    engine.track(error_sums, lanes, steps, flags, 0, disks, config[SUCCESS_BOUND])"
+        "\n    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])"
         if rule == "track"
         else ""
     )
@@ -538,8 +563,8 @@ def generate_steps(task) -> str:
     for tableau in TABLEAUS:
         advance = _ADVANCE["dopri5" if tableau.error else "fixed"]
         template = STEP_TEMPLATE.replace("{advance}", advance).replace("{finish}", finish).replace("{track}", track)
-        store_substep = _stores("lanes", _ITEMS[:8], _items("x", 8), 16)
-        steps.append(_fill(template, {**fields, "{store_substep}": store_substep, "{method}": tableau.name}))
+        store_substep = _stores("lanes", _ITEMS[:8], _items("x", 8), 16, "k, i")
+        steps.append(_fill(template, {**step_fields, "{store_substep}": store_substep, "{method}": tableau.name}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
@@ -555,7 +580,7 @@ def generate_steps(task) -> str:
             "    PERIOD, PREVIOUS, RADIUS, REQUIRED_FRICTION, REWARD, RTOL, STATUS, STEP_SIZE, SUBSTEP_LIMIT,",
             "    SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,",
             ")",
-            "from rolling_disk_env.jit import kernel",
+            "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
             "from rolling_disk_env.tasks.base import REACHED, RUNNING",
             f"import {module.__name__} as task",
             "",
@@ -578,11 +603,11 @@ def _items(name: str, size: int) -> list[str]:
     return [f"{name}[{j}]" for j in range(size)]
 
 
-def _row_tuple(array: str, size: int, row: bool = True, column: bool = False, first: str = "") -> str:
-    """``(array[i, 0], array[i, 1], ...)``, or ``(array[0, i], ...)`` (``column``, from row ``first`` + 0), or
+def _row_tuple(array: str, size: int, row: bool = True, column: str = "", first: str = "") -> str:
+    """``(array[i, 0], array[i, 1], ...)``, or ``(array[0, column], ...)`` (from row ``first`` + 0), or
     ``(array[0], ...)`` (not ``row``): a tuple of ``size`` floats, which numba keeps in registers."""
     if column:
-        items = [f"{array}[{first}{j}, i]" for j in range(size)]
+        items = [f"{array}[{first}{j}, {column}]" for j in range(size)]
     else:
         items = [f"{array}[i, {j}]" if row else f"{array}[{j}]" for j in range(size)]
     one_line = f"({', '.join(items)}{',' if size == 1 else ''})"
@@ -592,14 +617,14 @@ def _row_tuple(array: str, size: int, row: bool = True, column: bool = False, fi
     return "(\n" + "".join(f"            {line}\n" for line in rows) + "        )"
 
 
-def _stores(array: str, rows: list[str], sources: list[str], indent: int) -> str:
-    """Lines writing ``sources`` (expressions) into column i of ``array`` at ``rows``, four a line (two for long
+def _stores(array: str, rows: list[str], sources: list[str], indent: int, column: str = "i") -> str:
+    """Lines writing ``sources`` (expressions) into ``column`` of ``array`` at ``rows``, four a line (two for long
     names)."""
     lines = []
     per_line = 4 if max(map(len, rows)) <= 9 else 2
     for start in range(0, len(rows), per_line):
         chunk = range(start, min(start + per_line, len(rows)))
-        targets = ", ".join(f"{array}[{rows[j]}, i]" for j in chunk)
+        targets = ", ".join(f"{array}[{rows[j]}, {column}]" for j in chunk)
         lines.append(" " * indent + f"{targets} = {', '.join(sources[j] for j in chunk)}")
     return "\n".join(lines)
 

@@ -77,19 +77,20 @@ NEXT_STEP, SAME_STEP, DISABLED = range(3)
 
 
 @inline_kernel
-def action_torques(actions, actuators, lanes, start, stop):
-    """Writes the torques (N m) and the effort (the mean squared clipped action) of disks start..stop-1 into their
-    lanes, from their normalized actions clipped to [-1, 1]. ``actuators`` has a row per action component: (torque
-    0 (spin) or 1 (steer), the torque of action +1 in N m)."""
-    count = actions.shape[1]
-    for i in range(start, stop):
-        lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = lanes[EFFORT, i] = 0.0
+def action_torques(actions, actuators, lanes, k, disks):
+    """Writes the torques (N m) and the effort (the mean squared clipped action) of the ``disks`` disks of share k into
+    their lanes, from their normalized actions (rows ``k * n ...`` of ``actions``, n disks a share) clipped to
+    [-1, 1]. ``actuators`` has a row per action component: (torque 0 (spin) or 1 (steer), the torque of action +1 in
+    N m)."""
+    count, first = actions.shape[1], k * lanes.shape[2]
+    for i in range(disks):
+        lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = lanes[EFFORT, k, i] = 0.0
     for j in range(count):
         row, limit = TAU_SPIN + int(actuators[j, 0]), actuators[j, 1]
-        for i in range(start, stop):
-            value = min(max(float(actions[i, j]), -1.0), 1.0)
-            lanes[EFFORT, i] += value * value / count
-            lanes[row, i] = limit * value
+        for i in range(disks):
+            value = min(max(float(actions[first + i, j]), -1.0), 1.0)
+            lanes[EFFORT, k, i] += value * value / count
+            lanes[row, k, i] = limit * value
 
 
 @kernel
@@ -105,11 +106,11 @@ def period_start(x, kept, substeps):
 
 
 @inline_kernel
-def remember(lanes, start, stop):
-    """Keeps the states of disks start..stop-1 in their rows PREVIOUS (before the substeps of a period)."""
+def remember(lanes, k):
+    """Keeps the states of the disks of share k in their rows PREVIOUS (before the substeps of a period)."""
     for j in range(8):  # the loop over disks innermost, where the compiler vectorizes it
-        for i in range(start, stop):
-            lanes[PREVIOUS + j, i] = lanes[STATE + j, i]
+        for i in range(lanes.shape[2]):
+            lanes[PREVIOUS + j, k, i] = lanes[STATE + j, k, i]
 
 
 @kernel
@@ -136,12 +137,12 @@ def contact(x, tau_spin, tau_steer, m, g, r):
 
 
 @inline_kernel
-def transpose(info, first, observations, start, stop):
-    """Copies the observations of disks start..stop-1 from their columns of ``info`` (rows from ``first``) into their
-    rows of ``observations`` (N, observation size)."""
-    for j in range(observations.shape[1]):
-        for i in range(start, stop):
-            observations[i, j] = info[first + j, i]
+def transpose(info, first, observations, k):
+    """Copies the observations of the disks of share k from their columns of ``info`` (rows from ``first``) into
+    their rows of ``observations``."""
+    for j in range(observations.shape[2]):
+        for i in range(observations.shape[1]):
+            observations[k, i, j] = info[first + j, k, i]
 
 
 @kernel
@@ -227,15 +228,16 @@ def steady_circle(radius, speed, g, r):
 
 
 @inline_kernel
-def track(error_sums, lanes, steps, flags, start, stop, bound):
-    """The success rule TRACK for disks start..stop-1 that are still running (flag SUCCESS set): adds each one's
-    tracking error of this step (row TRACKING_ERROR) to its running sums (its column of ``error_sums``, a row per
-    step) and keeps its flag where the mean error over the last half of the episode is within ``bound``."""
-    for i in range(start, stop):
-        if flags[SUCCESS, i]:
-            step, half = steps[i], steps[i] // 2
-            error_sums[step, i] = error_sums[step - 1, i] + lanes[TRACKING_ERROR, i]
-            flags[SUCCESS, i] = (error_sums[step, i] - error_sums[half, i]) / max(1, step - half) <= bound
+def track(error_sums, lanes, steps, flags, k, disks, bound):
+    """The success rule TRACK for the ``disks`` disks of share k that are still running (flag SUCCESS set): adds
+    each one's tracking error of this step (row TRACKING_ERROR) to its running sums (its row of ``error_sums``, an
+    entry per step: the entries a disk reads and writes stay in a few cache lines) and keeps its flag where the mean
+    error over the last half of the episode is within ``bound``."""
+    for i in range(disks):
+        if flags[SUCCESS, k, i]:
+            step, half = steps[k, i], steps[k, i] // 2
+            error_sums[k, i, step] = error_sums[k, i, step - 1] + lanes[TRACKING_ERROR, k, i]
+            flags[SUCCESS, k, i] = (error_sums[k, i, step] - error_sums[k, i, half]) / max(1, step - half) <= bound
 
 
 # The model API's loops (rolling_disk_env.dynamics and rolling_disk_env.integrators): rows of states, torques (N, 2)

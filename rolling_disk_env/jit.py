@@ -1,4 +1,5 @@
-"""How the package compiles: every compiled function is declared with :data:`kernel` or :data:`inline_kernel`.
+"""How the package compiles: every compiled function is declared with :data:`kernel`, :data:`inline_kernel` or
+:data:`parallel_kernel`.
 
 Kernels are plain Python functions of floats and numpy arrays, compiled by numba on first call and cached on disk
 (``cache=True``): in ``__pycache__`` next to the module, or, where that is not writable (a read-only site-packages),
@@ -91,3 +92,7 @@ kernel = numba.njit(cache=True, error_model="numpy")
 inline_kernel = numba.njit(cache=True, error_model="numpy", inline="always")
 """Compiles a function that numba inlines into each caller: a per-disk body called in a loop with many arrays, whose
 arguments a real call would pass one by one for every disk."""
+parallel_kernel = numba.njit(cache=True, error_model="numpy", parallel=True)
+"""Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""
+prange = numba.prange
+"""``range`` whose iterations a :data:`parallel_kernel` spreads over threads."""

@@ -15,7 +15,7 @@ from gymnasium.utils import seeding
 
 import rolling_disk_env as rd
 from rolling_disk_env import engine, jit, pcg64
-from rolling_disk_env.envs.batch import columns
+from rolling_disk_env.envs.batch import THREADS_FROM, columns
 from rolling_disk_env.tasks import TASKS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -153,14 +153,17 @@ def test_importing_the_envs_compiles_nothing_until_a_config_is_used():
 
 
 @pytest.mark.parametrize("num_envs", [1, 255, 256, 4096, 4100, 16384])
-def test_a_large_batch_has_rows_of_an_odd_number_of_cache_lines(num_envs):
+def test_a_large_batch_has_shares_of_rows_of_an_odd_number_of_cache_lines(num_envs):
     width = columns(num_envs)
     if num_envs < 256:
         assert width == num_envs
     else:
         assert num_envs <= width <= num_envs + 16 and width % 8 == 0 and (width // 8) % 2 == 1
     env = rd.RollingDiskVectorEnv(num_envs=num_envs)
-    assert env._batch.lanes.shape == (engine.LANES, width)
+    batch = env._batch
+    assert batch.threads == (jit.numba.get_num_threads() if num_envs >= THREADS_FROM else 1)
+    assert batch.share == columns(-(-num_envs // batch.threads))
+    assert batch.lanes.shape == (engine.LANES, batch.threads * batch.share)
     observations, infos = env.reset(seed=0)
     assert observations.shape == (num_envs, 4) and infos["energy"].shape == (num_envs,)
     observations, rewards, terminated, _, infos = env.step(np.zeros((num_envs, 2), dtype=np.float32))

@@ -7,10 +7,11 @@ import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 import rolling_disk_env as rd
+from rolling_disk_env.envs import batch
 from rolling_disk_env.tasks import TASKS
 
 RANDOMIZED_DISKS = {"params_ranges": {"mass": (4.0, 6.0), "radius": (0.8, 1.2), "gravity": (9.0, 10.6)}}
-PADDED = 512
+THREADED = 512
 """A batch that the tests step on numba's threads."""
 LIMIT = 60
 """Episode steps before truncation in these tests: short, so that every sub-environment is reset many times."""
@@ -89,10 +90,11 @@ def test_each_autoreset_mode_behaves_exactly_like_sync_vector_env(task, mode):
     ("kwargs", "num_envs", "compared"),
     [pytest.param({"task": task}, 5, range(5), id=task) for task in sorted(TASKS)]
     + [pytest.param({"task": task, **RANDOMIZED_DISKS}, 5, range(5), id=f"{task}, random disks") for task in TASKS]
-    # A batch this large has idle padding columns (envs.batch.columns), and the vectorized loop's full width.
-    + [pytest.param({"task": "circle"}, PADDED, (0, 1, PADDED - 1), id="circle, padded columns")],
+    # A batch this large is split into shares, one a thread, padded (envs.batch), and fills the vectorized loop.
+    + [pytest.param({"task": "circle"}, THREADED, (0, 1, THREADED // 2, THREADED - 1), id="circle, threads")],
 )
-def test_vector_env_equals_single_envs_to_the_last_bit(kwargs, num_envs, compared):
+def test_vector_env_equals_single_envs_to_the_last_bit(kwargs, num_envs, compared, monkeypatch):
+    monkeypatch.setattr(batch, "THREADS_FROM", THREADED // 2)  # so that the large batch steps on threads
     steps = 300
     vector = _native(num_envs, **kwargs)
     observations, infos = vector.reset(seed=11)

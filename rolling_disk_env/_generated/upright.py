@@ -20,7 +20,7 @@ from rolling_disk_env.engine import (
     PERIOD, PREVIOUS, RADIUS, REQUIRED_FRICTION, REWARD, RTOL, STATUS, STEP_SIZE, SUBSTEP_LIMIT,
     SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,
 )
-from rolling_disk_env.jit import kernel
+from rolling_disk_env.jit import kernel, parallel_kernel, prange
 from rolling_disk_env.tasks.base import REACHED, RUNNING
 import rolling_disk_env.tasks.upright as task
 
@@ -66,7 +66,7 @@ def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, 
         lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
         lanes[STEP_SIZE, i] = config[PERIOD]
         steps[i] = 0
-        error_sums[0, i] = 0.0
+        error_sums[i, 0] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
         info[0, i], info[1, i] = x[0], x[1]
@@ -88,265 +88,360 @@ def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, 
 
 
 @kernel
-def step_euler(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
-    info, flags):
-    """One control period of every disk with euler: the action's torques, then, in one loop over the disks
-    (which the compiler vectorizes), the integration and the disk's outputs. Returns the first disk with a non-finite
-    action (then nothing is stepped), or -1."""
-    bad = engine.first_nonfinite(actions)
-    if bad >= 0:
-        return bad
+def step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """One control period with euler of the disks of share k of the batch: the action's torques, then, in one
+    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+
+    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
+    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
+    that the rows the loop reads and writes do not overlap."""
     settings = (settings[0], settings[1])
-    disks = actions.shape[0]
-    # The loop over the disks runs over every column, 0..shape[1], padding included: numba addresses a row of a
-    # C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do not
-    # overlap, and vectorizes it.
-    start, stop = 0, lanes.shape[1]
-    engine.action_torques(actions, actuators, lanes, 0, disks)
+    disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
+    engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
     dt = config[PERIOD] / substeps
     if substeps > 1:  # all substeps but the last, from the state at the start of the period, kept
-        engine.remember(lanes, start, stop)
+        engine.remember(lanes, k)
         for _ in range(substeps - 1):
-            for i in range(start, stop):
-                x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-                x = kernels.state_euler_step(
-                    x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
-                )
-                lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-                lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-    for i in range(start, stop):
-        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        new = kernels.state_euler_step(
-            x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
+            for i in range(lanes.shape[2]):
+                tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+                m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+                x = kernels.state_euler_step((
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        ), dt, tau_spin, tau_steer, m, g, r)
+                lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+                lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
+        new = kernels.state_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
         kept = (
-            lanes[PREVIOUS + 0, i], lanes[PREVIOUS + 1, i], lanes[PREVIOUS + 2, i], lanes[PREVIOUS + 3, i],
-            lanes[PREVIOUS + 4, i], lanes[PREVIOUS + 5, i], lanes[PREVIOUS + 6, i], lanes[PREVIOUS + 7, i],
+            lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
+            lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
         )
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
-        lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-        lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-        contact = engine.contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
-            lanes[RADIUS, i])
-        goal = (goals[0, i],)
+        lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+        lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
+        goal = (goals[0, k, i],)
         code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
-        steps[i] += 1
-        info[0, i], info[1, i] = x[0], x[1]
-        info[2, i], info[3, i] = x[2], x[3]
-        info[4, i], info[5, i] = x[4], x[5]
-        info[6, i], info[7, i] = x[6], x[7]
-        info[ENERGY, i], info[LAMBDA1, i] = contact[0], contact[1]
-        info[LAMBDA2, i], info[NORMAL_FORCE, i] = contact[2], contact[3]
-        info[REQUIRED_FRICTION, i], info[STATUS, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, i], goal, settings)
-        info[TERMS + 0, i], info[TERMS + 1, i], info[TERMS + 2, i], info[TERMS + 3, i] = terms[0], terms[1], terms[2], terms[3]
-        info[REWARD, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
+        steps[k, i] += 1
+        info[0, k, i], info[1, k, i] = x[0], x[1]
+        info[2, k, i], info[3, k, i] = x[2], x[3]
+        info[4, k, i], info[5, k, i] = x[4], x[5]
+        info[6, k, i], info[7, k, i] = x[6], x[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
+        info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
-        info[OBSERVATION + 0, i] = min(max(observation[0], -bounds[0]), bounds[0])
-        info[OBSERVATION + 1, i] = min(max(observation[1], -bounds[1]), bounds[1])
-        info[OBSERVATION + 2, i] = min(max(observation[2], -bounds[2]), bounds[2])
-        info[OBSERVATION + 3, i] = min(max(observation[3], -bounds[3]), bounds[3])
-        flags[TERMINATED, i] = code != RUNNING
-        flags[TRUNCATED, i] = 0 < config[MAX_STEPS] <= steps[i]
-        flags[SUCCESS, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, 0, disks)
-    return -1
+        info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
+        info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
+        info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
+        info[OBSERVATION + 3, k, i] = min(max(observation[3], -bounds[3]), bounds[3])
+        flags[TERMINATED, k, i] = code != RUNNING
+        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[SUCCESS, k, i] = code == RUNNING
+    engine.transpose(info, OBSERVATION, observations, k)
+
+
+@kernel
+def step_euler(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
+    info, flags):
+    """Steps a batch of one share (see :func:`step_euler_share`); returns the first disk with a non-finite action
+    (then nothing is stepped), or -1."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        step_euler_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+            observations, info, flags)
+    return bad
+
+
+@parallel_kernel
+def step_euler_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """:func:`step_euler` for a batch of several shares, a share per thread."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        for k in prange(lanes.shape[1]):
+            step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+                bounds, observations, info, flags)
+    return bad
+
+
+@kernel
+def step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in one
+    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+
+    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
+    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
+    that the rows the loop reads and writes do not overlap."""
+    settings = (settings[0], settings[1])
+    disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
+    engine.action_torques(actions, actuators, lanes, k, disks)
+    substeps = int(config[SUBSTEPS])
+    dt = config[PERIOD] / substeps
+    if substeps > 1:  # all substeps but the last, from the state at the start of the period, kept
+        engine.remember(lanes, k)
+        for _ in range(substeps - 1):
+            for i in range(lanes.shape[2]):
+                tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+                m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+                x = kernels.state_symplectic_euler_step((
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        ), dt, tau_spin, tau_steer, m, g, r)
+                lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+                lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        new = kernels.state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
+        kept = (
+            lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
+            lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
+        )
+        x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
+        lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+        lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
+        goal = (goals[0, k, i],)
+        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
+        code = task.termination(x, goal, settings) if code == RUNNING else code
+        steps[k, i] += 1
+        info[0, k, i], info[1, k, i] = x[0], x[1]
+        info[2, k, i], info[3, k, i] = x[2], x[3]
+        info[4, k, i], info[5, k, i] = x[4], x[5]
+        info[6, k, i], info[7, k, i] = x[6], x[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
+        info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
+        observation = task.observe(x, goal, settings)
+        info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
+        info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
+        info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
+        info[OBSERVATION + 3, k, i] = min(max(observation[3], -bounds[3]), bounds[3])
+        flags[TERMINATED, k, i] = code != RUNNING
+        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[SUCCESS, k, i] = code == RUNNING
+    engine.transpose(info, OBSERVATION, observations, k)
 
 
 @kernel
 def step_symplectic_euler(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
     info, flags):
-    """One control period of every disk with symplectic_euler: the action's torques, then, in one loop over the disks
-    (which the compiler vectorizes), the integration and the disk's outputs. Returns the first disk with a non-finite
-    action (then nothing is stepped), or -1."""
+    """Steps a batch of one share (see :func:`step_symplectic_euler_share`); returns the first disk with a non-finite action
+    (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
-    if bad >= 0:
-        return bad
+    if bad < 0:
+        step_symplectic_euler_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+            observations, info, flags)
+    return bad
+
+
+@parallel_kernel
+def step_symplectic_euler_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """:func:`step_symplectic_euler` for a batch of several shares, a share per thread."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        for k in prange(lanes.shape[1]):
+            step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+                bounds, observations, info, flags)
+    return bad
+
+
+@kernel
+def step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in one
+    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+
+    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
+    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
+    that the rows the loop reads and writes do not overlap."""
     settings = (settings[0], settings[1])
-    disks = actions.shape[0]
-    # The loop over the disks runs over every column, 0..shape[1], padding included: numba addresses a row of a
-    # C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do not
-    # overlap, and vectorizes it.
-    start, stop = 0, lanes.shape[1]
-    engine.action_torques(actions, actuators, lanes, 0, disks)
+    disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
+    engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
     dt = config[PERIOD] / substeps
     if substeps > 1:  # all substeps but the last, from the state at the start of the period, kept
-        engine.remember(lanes, start, stop)
+        engine.remember(lanes, k)
         for _ in range(substeps - 1):
-            for i in range(start, stop):
-                x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-                x = kernels.state_symplectic_euler_step(
-                    x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
-                )
-                lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-                lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-    for i in range(start, stop):
-        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        new = kernels.state_symplectic_euler_step(
-            x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
+            for i in range(lanes.shape[2]):
+                tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+                m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+                x = kernels.state_rk4_step((
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        ), dt, tau_spin, tau_steer, m, g, r)
+                lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+                lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
+        new = kernels.state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r)
         kept = (
-            lanes[PREVIOUS + 0, i], lanes[PREVIOUS + 1, i], lanes[PREVIOUS + 2, i], lanes[PREVIOUS + 3, i],
-            lanes[PREVIOUS + 4, i], lanes[PREVIOUS + 5, i], lanes[PREVIOUS + 6, i], lanes[PREVIOUS + 7, i],
+            lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
+            lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
         )
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
-        lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-        lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-        contact = engine.contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
-            lanes[RADIUS, i])
-        goal = (goals[0, i],)
+        lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+        lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
+        goal = (goals[0, k, i],)
         code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
-        steps[i] += 1
-        info[0, i], info[1, i] = x[0], x[1]
-        info[2, i], info[3, i] = x[2], x[3]
-        info[4, i], info[5, i] = x[4], x[5]
-        info[6, i], info[7, i] = x[6], x[7]
-        info[ENERGY, i], info[LAMBDA1, i] = contact[0], contact[1]
-        info[LAMBDA2, i], info[NORMAL_FORCE, i] = contact[2], contact[3]
-        info[REQUIRED_FRICTION, i], info[STATUS, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, i], goal, settings)
-        info[TERMS + 0, i], info[TERMS + 1, i], info[TERMS + 2, i], info[TERMS + 3, i] = terms[0], terms[1], terms[2], terms[3]
-        info[REWARD, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
+        steps[k, i] += 1
+        info[0, k, i], info[1, k, i] = x[0], x[1]
+        info[2, k, i], info[3, k, i] = x[2], x[3]
+        info[4, k, i], info[5, k, i] = x[4], x[5]
+        info[6, k, i], info[7, k, i] = x[6], x[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
+        info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
-        info[OBSERVATION + 0, i] = min(max(observation[0], -bounds[0]), bounds[0])
-        info[OBSERVATION + 1, i] = min(max(observation[1], -bounds[1]), bounds[1])
-        info[OBSERVATION + 2, i] = min(max(observation[2], -bounds[2]), bounds[2])
-        info[OBSERVATION + 3, i] = min(max(observation[3], -bounds[3]), bounds[3])
-        flags[TERMINATED, i] = code != RUNNING
-        flags[TRUNCATED, i] = 0 < config[MAX_STEPS] <= steps[i]
-        flags[SUCCESS, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, 0, disks)
-    return -1
+        info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
+        info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
+        info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
+        info[OBSERVATION + 3, k, i] = min(max(observation[3], -bounds[3]), bounds[3])
+        flags[TERMINATED, k, i] = code != RUNNING
+        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[SUCCESS, k, i] = code == RUNNING
+    engine.transpose(info, OBSERVATION, observations, k)
 
 
 @kernel
 def step_rk4(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
     info, flags):
-    """One control period of every disk with rk4: the action's torques, then, in one loop over the disks
-    (which the compiler vectorizes), the integration and the disk's outputs. Returns the first disk with a non-finite
-    action (then nothing is stepped), or -1."""
+    """Steps a batch of one share (see :func:`step_rk4_share`); returns the first disk with a non-finite action
+    (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
-    if bad >= 0:
-        return bad
+    if bad < 0:
+        step_rk4_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+            observations, info, flags)
+    return bad
+
+
+@parallel_kernel
+def step_rk4_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """:func:`step_rk4` for a batch of several shares, a share per thread."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        for k in prange(lanes.shape[1]):
+            step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+                bounds, observations, info, flags)
+    return bad
+
+
+@kernel
+def step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in one
+    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+
+    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
+    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
+    that the rows the loop reads and writes do not overlap."""
     settings = (settings[0], settings[1])
-    disks = actions.shape[0]
-    # The loop over the disks runs over every column, 0..shape[1], padding included: numba addresses a row of a
-    # C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do not
-    # overlap, and vectorizes it.
-    start, stop = 0, lanes.shape[1]
-    engine.action_torques(actions, actuators, lanes, 0, disks)
-    substeps = int(config[SUBSTEPS])
-    dt = config[PERIOD] / substeps
-    if substeps > 1:  # all substeps but the last, from the state at the start of the period, kept
-        engine.remember(lanes, start, stop)
-        for _ in range(substeps - 1):
-            for i in range(start, stop):
-                x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-                x = kernels.state_rk4_step(
-                    x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
-                )
-                lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-                lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-    for i in range(start, stop):
-        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        new = kernels.state_rk4_step(
-            x, dt, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i]
+    disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
+    engine.action_torques(actions, actuators, lanes, k, disks)
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
-        kept = (
-            lanes[PREVIOUS + 0, i], lanes[PREVIOUS + 1, i], lanes[PREVIOUS + 2, i], lanes[PREVIOUS + 3, i],
-            lanes[PREVIOUS + 4, i], lanes[PREVIOUS + 5, i], lanes[PREVIOUS + 6, i], lanes[PREVIOUS + 7, i],
+        new, lanes[STEP_SIZE, k, i], ok = engine.advance_adaptive(
+            x, config[PERIOD], lanes[STEP_SIZE, k, i], tau_spin, tau_steer, m, g, r, config[RTOL], config[ATOL]
         )
-        x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
+        x, code = engine.in_domain(x, new, RUNNING if ok else SUBSTEP_LIMIT)
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
-        lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-        lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-        contact = engine.contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
-            lanes[RADIUS, i])
-        goal = (goals[0, i],)
+        lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+        lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
+        goal = (goals[0, k, i],)
         code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
-        steps[i] += 1
-        info[0, i], info[1, i] = x[0], x[1]
-        info[2, i], info[3, i] = x[2], x[3]
-        info[4, i], info[5, i] = x[4], x[5]
-        info[6, i], info[7, i] = x[6], x[7]
-        info[ENERGY, i], info[LAMBDA1, i] = contact[0], contact[1]
-        info[LAMBDA2, i], info[NORMAL_FORCE, i] = contact[2], contact[3]
-        info[REQUIRED_FRICTION, i], info[STATUS, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, i], goal, settings)
-        info[TERMS + 0, i], info[TERMS + 1, i], info[TERMS + 2, i], info[TERMS + 3, i] = terms[0], terms[1], terms[2], terms[3]
-        info[REWARD, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
+        steps[k, i] += 1
+        info[0, k, i], info[1, k, i] = x[0], x[1]
+        info[2, k, i], info[3, k, i] = x[2], x[3]
+        info[4, k, i], info[5, k, i] = x[4], x[5]
+        info[6, k, i], info[7, k, i] = x[6], x[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
+        info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
-        info[OBSERVATION + 0, i] = min(max(observation[0], -bounds[0]), bounds[0])
-        info[OBSERVATION + 1, i] = min(max(observation[1], -bounds[1]), bounds[1])
-        info[OBSERVATION + 2, i] = min(max(observation[2], -bounds[2]), bounds[2])
-        info[OBSERVATION + 3, i] = min(max(observation[3], -bounds[3]), bounds[3])
-        flags[TERMINATED, i] = code != RUNNING
-        flags[TRUNCATED, i] = 0 < config[MAX_STEPS] <= steps[i]
-        flags[SUCCESS, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, 0, disks)
-    return -1
+        info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
+        info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
+        info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
+        info[OBSERVATION + 3, k, i] = min(max(observation[3], -bounds[3]), bounds[3])
+        flags[TERMINATED, k, i] = code != RUNNING
+        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[SUCCESS, k, i] = code == RUNNING
+    engine.transpose(info, OBSERVATION, observations, k)
 
 
 @kernel
 def step_dopri5(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
     info, flags):
-    """One control period of every disk with dopri5: the action's torques, then, in one loop over the disks
-    (which the compiler vectorizes), the integration and the disk's outputs. Returns the first disk with a non-finite
-    action (then nothing is stepped), or -1."""
+    """Steps a batch of one share (see :func:`step_dopri5_share`); returns the first disk with a non-finite action
+    (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
-    if bad >= 0:
-        return bad
-    settings = (settings[0], settings[1])
-    disks = actions.shape[0]
-    # The loop over the disks runs over every column, 0..shape[1], padding included: numba addresses a row of a
-    # C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do not
-    # overlap, and vectorizes it.
-    start, stop = 0, lanes.shape[1]
-    engine.action_torques(actions, actuators, lanes, 0, disks)
-    for i in range(start, stop):
-        x = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
-        new, lanes[STEP_SIZE, i], ok = engine.advance_adaptive(
-            x, config[PERIOD], lanes[STEP_SIZE, i], lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i],
-            lanes[GRAVITY, i], lanes[RADIUS, i], config[RTOL], config[ATOL]
-        )
-        x, code = engine.in_domain(x, new, RUNNING if ok else SUBSTEP_LIMIT)
-        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
-        # the task's termination, reward terms, success and observation, into its column of info and flags.
-        lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-        lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-        contact = engine.contact(x, lanes[TAU_SPIN, i], lanes[TAU_STEER, i], lanes[MASS, i], lanes[GRAVITY, i],
-            lanes[RADIUS, i])
-        goal = (goals[0, i],)
-        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
-        code = task.termination(x, goal, settings) if code == RUNNING else code
-        steps[i] += 1
-        info[0, i], info[1, i] = x[0], x[1]
-        info[2, i], info[3, i] = x[2], x[3]
-        info[4, i], info[5, i] = x[4], x[5]
-        info[6, i], info[7, i] = x[6], x[7]
-        info[ENERGY, i], info[LAMBDA1, i] = contact[0], contact[1]
-        info[LAMBDA2, i], info[NORMAL_FORCE, i] = contact[2], contact[3]
-        info[REQUIRED_FRICTION, i], info[STATUS, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, i], goal, settings)
-        info[TERMS + 0, i], info[TERMS + 1, i], info[TERMS + 2, i], info[TERMS + 3, i] = terms[0], terms[1], terms[2], terms[3]
-        info[REWARD, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, goal, settings)
-        info[OBSERVATION + 0, i] = min(max(observation[0], -bounds[0]), bounds[0])
-        info[OBSERVATION + 1, i] = min(max(observation[1], -bounds[1]), bounds[1])
-        info[OBSERVATION + 2, i] = min(max(observation[2], -bounds[2]), bounds[2])
-        info[OBSERVATION + 3, i] = min(max(observation[3], -bounds[3]), bounds[3])
-        flags[TERMINATED, i] = code != RUNNING
-        flags[TRUNCATED, i] = 0 < config[MAX_STEPS] <= steps[i]
-        flags[SUCCESS, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, 0, disks)
-    return -1
+    if bad < 0:
+        step_dopri5_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+            observations, info, flags)
+    return bad
+
+
+@parallel_kernel
+def step_dopri5_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
+    observations, info, flags):
+    """:func:`step_dopri5` for a batch of several shares, a share per thread."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        for k in prange(lanes.shape[1]):
+            step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
+                bounds, observations, info, flags)
+    return bad

@@ -2,21 +2,44 @@
 
 The single env is a batch of one; the vector env a batch of N. Both call the same generated kernels
 (``_generated/<task>.py``), so the same seeds give the same transitions to the last bit.
+
+Layout: a batch's arrays have a column per disk (``lanes[row, i]``), split into equal *shares*, each padded
+(:func:`columns`), so that each thread steps one share: the step sees them as ``[row, k, i]`` for disk i of share k.
+
+Threads: a batch of at least :data:`THREADS_FROM` disks is split into one share per numba thread
+(``NUMBA_NUM_THREADS``, by default one per core), stepped at once (:func:`thread_count`); smaller batches, and every
+batch in a child process (``SubprocVecEnv``'s, whose siblings share the cores) or where ``NUMBA_NUM_THREADS=1``, have
+one share, stepped on the calling thread. The disks of a share are independent of the others, so the threads change
+no result. Resets run on the calling thread.
 """
 
 from __future__ import annotations
 
 import ctypes
 import functools
+import multiprocessing
 import os
 import platform
-from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from rolling_disk_env import engine
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.tasks.base import TRACK
+
+THREADS_FROM = 4096
+"""Batches of this many disks or more step on several threads (``benchmarks/bench_env.py`` measures the threaded
+step against the serial one around it)."""
+
+
+def thread_count(num_envs: int) -> int:
+    """Threads that step a batch of ``num_envs`` disks: 1 below :data:`THREADS_FROM` and in a child process of
+    ``multiprocessing``, else numba's thread count."""
+    if num_envs < THREADS_FROM or multiprocessing.parent_process() is not None:
+        return 1
+    return numba.get_num_threads()
+
 
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
 """glibc's mallopt parameter numbers."""
@@ -44,52 +67,65 @@ def keep_freed_memory() -> bool:
 
 
 def columns(num_envs: int) -> int:
-    """Columns of a batch's arrays of one column per disk: ``num_envs``, and from 256 disks on a few more (idle,
-    never reported), so that a row spans an odd number of 64-byte cache lines. With rows of a power-of-two size, the
-    dozens of rows a step reads and writes map to the same sets of the CPU's cache and evict each other: measured
-    at N = 4096 and 16384, a step took 31 to 37 ns a disk against 27 at N = 4104 and 16392."""
+    """Columns of a share of ``num_envs`` disks: ``num_envs``, and from 256 disks on a few more (idle, never
+    reported), so that a row of the share spans an odd number of 64-byte cache lines. With rows of a power-of-two
+    size, the dozens of rows a step reads and writes map to the same sets of the CPU's cache and evict each other:
+    measured at N = 4096 and 16384, a step took 31 to 37 ns a disk against 27 at N = 4104 and 16392."""
     if num_envs < 256:
         return num_envs
     lines = -(-num_envs // 8)
     return 8 * (lines + 1 - lines % 2)
 
 
-@dataclass
 class Outputs:
     """What a step or a reset returns for N disks.
 
     Attributes:
         observations: (N, observation size), float32, clipped to the observation space.
-        block: (engine.TERMS + terms + observation size, columns), float64, a column per disk (and padding, see
-            :func:`columns`): the state, energy, contact forces, normal force, required friction, reward,
-            termination code, reward terms (rows ``engine.ENERGY`` and the others), then the observation (which the
-            step copies into ``observations``).
-        flag_block: (3, columns), bool: terminated, truncated, success (rows ``engine.TERMINATED`` and the others).
+        info: (engine.TERMS + terms + observation size, N), float64, a column per disk: the state, energy, contact
+            forces, normal force, required friction, reward, termination code, reward terms (rows ``engine.ENERGY``
+            and the others), then the observation (which the step copies into ``observations``).
+        flags: (3, N), bool, a column per disk: terminated, truncated, success (rows ``engine.TERMINATED`` and the
+            others).
+        blocks: the arrays these are views of, as the reset takes them (padding included: a column or a row per
+            column of the batch, :func:`columns`).
+        shares: the same, as the step takes them: split into the batch's shares (``[row, k, i]``, ``[k, i, j]``).
     """
 
-    observations: np.ndarray
-    block: np.ndarray
-    flag_block: np.ndarray
+    def __init__(self, num_envs: int, shares: tuple[np.ndarray, np.ndarray, np.ndarray]):
+        """
+        Args:
+            num_envs: N.
+            shares: the observations (shares, columns, size), info (rows, shares, columns) and flags (3, shares,
+                columns).
+        """
+        self.num_envs, self.shares = num_envs, shares
+        observations, info, flags = shares
+        width = info.shape[1] * info.shape[2]
+        self.blocks = (observations.reshape(width, -1), info.reshape(-1, width), flags.reshape(3, width))
+        self.observations = self.blocks[0][:num_envs]
+        self.info, self.flags = self.blocks[1][:, :num_envs], self.blocks[2][:, :num_envs]
+
+    def __reduce__(self):
+        """Pickles the arrays, not their views (which pickle as copies)."""
+        return Outputs, (self.num_envs, self.shares)
 
     @classmethod
-    def empty(cls, num_envs: int, observation_size: int, terms: int, zeroed: bool = True) -> Outputs:
-        """New arrays: zeros, or (``zeroed=False``, for a step, which writes every disk's) uninitialized."""
-        make, width = (np.zeros if zeroed else np.empty), columns(num_envs)
+    def empty(
+        cls, num_envs: int, observation_size: int, terms: int, zeroed: bool = True, shares: tuple[int, int] = (1, 0)
+    ) -> Outputs:
+        """New arrays for ``shares`` = (count, columns of each; 0: N): zeros, or (``zeroed=False``, for a step,
+        which writes every disk's) uninitialized."""
+        make, (count, share) = (np.zeros if zeroed else np.empty), shares
+        share = share or num_envs
         return cls(
-            make((num_envs, observation_size), dtype=np.float32),
-            make((engine.TERMS + terms + observation_size, width)),
-            make((3, width), dtype=bool),
+            num_envs,
+            (
+                make((count, share, observation_size), dtype=np.float32),
+                make((engine.TERMS + terms + observation_size, count, share)),
+                make((3, count, share), dtype=bool),
+            ),
         )
-
-    @property
-    def info(self) -> np.ndarray:
-        """The disks' columns of :attr:`block`, (rows, N)."""
-        return self.block[:, : len(self.observations)]
-
-    @property
-    def flags(self) -> np.ndarray:
-        """The disks' columns of :attr:`flag_block`, (3, N)."""
-        return self.flag_block[:, : len(self.observations)]
 
 
 class DiskBatch:
@@ -106,10 +142,12 @@ class DiskBatch:
     def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None):
         task = config.task
         steps = engine.task_steps(task)
-        self._step = getattr(steps, f"step_{config.integrator}")
         self._reset = steps.reset
         self.num_envs = num_envs
-        width = columns(num_envs)
+        self.threads = thread_count(num_envs)
+        self._step = getattr(steps, f"step_{config.integrator}" + ("_threads" if self.threads > 1 else ""))
+        self.share = columns(-(-num_envs // self.threads))
+        self.width = width = self.threads * self.share
         if num_envs >= HEAP_FROM:
             keep_freed_memory()
         self.terms = len(task.reward_weights)
@@ -119,9 +157,12 @@ class DiskBatch:
         self.lanes[engine.MASS : engine.RADIUS + 1] = np.array(config.params.constants)[:, None]
         self.goals = np.zeros((len(task.goal_names), width))
         self.steps = np.zeros(width, dtype=np.int64)
-        # Tracking errors summed over each episode, a row per step, for the success rule TRACK; grown as needed.
+        # Tracking errors summed over each episode, a row per disk, for the success rule TRACK. An episode truncated
+        # at max_episode_steps may be stepped once more before its reset (next-step autoreset): 2 entries beyond it.
+        # Without truncation, the rows grow as episodes get longer.
         tracked = task.success == TRACK
-        self.error_sums = np.zeros(((max_episode_steps or 1024) + 1 if tracked else 1, width))
+        self._growing = tracked and max_episode_steps is None
+        self.error_sums = np.zeros((width, (max_episode_steps or 1024) + 2 if tracked else 1))
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, 8), np.nan)
         # Settings.
@@ -133,6 +174,7 @@ class DiskBatch:
         self.weights = task.weights
         self.bounds = task.observation_high
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
+        self._state_shares = self._split_state()
 
     @property
     def states(self) -> np.ndarray:
@@ -146,7 +188,25 @@ class DiskBatch:
 
     def outputs(self, zeroed: bool = True) -> Outputs:
         """New output arrays for the batch (see :meth:`Outputs.empty`)."""
-        return Outputs.empty(self.num_envs, self.observation_size, self.terms, zeroed)
+        return Outputs.empty(self.num_envs, self.observation_size, self.terms, zeroed, (self.threads, self.share))
+
+    def __getstate__(self) -> dict:
+        """Pickles the arrays, not the views of them the step takes (which would pickle as copies)."""
+        return {key: value for key, value in self.__dict__.items() if key != "_state_shares"}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._state_shares = self._split_state()
+
+    def _split_state(self) -> tuple[np.ndarray, ...]:
+        """The lanes, goals, step counts and error sums, as the step takes them: split into the shares (views)."""
+        split = (self.threads, self.share)
+        return (
+            self.lanes.reshape(-1, *split),
+            self.goals.reshape(-1, *split),
+            self.steps.reshape(split),
+            self.error_sums.reshape(*split, -1),
+        )
 
     def reset(
         self, mask: np.ndarray, out: Outputs, rngs: np.ndarray | None = None, states: np.ndarray | None = None
@@ -174,9 +234,7 @@ class DiskBatch:
             self.ranges,
             self.settings,
             self.bounds,
-            out.observations,
-            out.block,
-            out.flag_block,
+            *out.blocks,
         )
 
     def step(self, actions: np.ndarray, out: Outputs) -> int:
@@ -185,20 +243,17 @@ class DiskBatch:
         Returns:
             The first disk whose action is not finite (then nothing was stepped), or -1.
         """
-        if len(self.error_sums) > 1 and self.steps[: self.num_envs].max() + 1 >= len(self.error_sums):
-            self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)])
-        return self._step(
+        if self._growing and self.steps[: self.num_envs].max() + 1 >= self.error_sums.shape[1]:
+            self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
+            self._state_shares = self._split_state()
+        arguments = (
             actions,
-            self.lanes,
-            self.goals,
-            self.steps,
-            self.error_sums,
+            *self._state_shares,
             self.config,
             self.actuators,
             self.settings,
             self.weights,
             self.bounds,
-            out.observations,
-            out.block,
-            out.flag_block,
+            *out.shares,
         )
+        return self._step(*arguments)
