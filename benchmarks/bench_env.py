@@ -1,5 +1,5 @@
 """Env speed: one ``env.step`` against Gymnasium's classic-control envs, the native vector env against Gymnasium's
-``CartPoleVectorEnv`` at every batch size, the parallel loop on and off, and the compile cost.
+``CartPoleVectorEnv`` at every batch size, one thread against numba's threads, and the compile cost.
 
 ``python benchmarks/bench_env.py [--quick] [--out DIR]`` writes ``env_speed.md`` and ``env_throughput.png`` to DIR
 (default ``benchmarks/results``).
@@ -8,8 +8,9 @@
    actions drawn beforehand, reset when an episode ends.
 2. The vector envs of ``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")``, default
    settings, random actions drawn beforehand, Gymnasium's next-step autoreset: env steps per second (N per call).
-3. Our vector env with its parallel loop forced on and off (``env.unwrapped._batch.parallel``), around
-   ``engine.PARALLEL_FROM``, the batch size from which the env turns it on.
+3. Our vector env on one thread and on numba's threads (``rolling_disk_env.envs.batch.THREADS_FROM`` set so that
+   the batch has one share, or one share a thread), around ``THREADS_FROM``, the batch size from which the env
+   uses threads.
 4. Compile cost, each in a fresh process: ``import rolling_disk_env``; the default env's first ``gym.make``,
    ``reset`` and ``step`` with an empty numba cache (``NUMBA_CACHE_DIR`` set to an empty folder: every kernel
    compiles), then again with that cache warm.
@@ -34,7 +35,7 @@ import numpy as np
 from _common import arguments, medians_in_turns, table, write_markdown
 
 import rolling_disk_env as rd
-from rolling_disk_env import engine
+from rolling_disk_env.envs import batch
 
 SINGLE = {
     "RollingDisk-v0 (upright)": (rd.ENV_ID, {}),
@@ -49,7 +50,7 @@ VECTOR = {
     "CartPole-v1": ("CartPole-v1", {}),
 }
 SIZES = (1, 8, 64, 512, 4096, 16384)
-PARALLEL_SIZES = (256, 512, 1024, 2048, 4096, 16384)
+THREAD_SIZES = (512, 1024, 2048, 4096, 16384)
 TASKS = ("upright", "circle")
 
 FIRST_STEP = """
@@ -114,18 +115,22 @@ class VectorRun:
         num_envs: N.
         kwargs: the id's keyword arguments.
         seconds: the wall time of one sample, for which the number of calls is calibrated once.
-        parallel: force our env's parallel loop on or off; None leaves the env's choice.
+        threads: force our env onto numba's threads (True) or one thread (False); None leaves the env's choice.
     """
 
-    def __init__(self, env_id: str, num_envs: int, kwargs: dict, seconds: float, parallel: bool | None = None):
-        self.env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
-        if parallel is not None:
-            self.env.unwrapped._batch.parallel = parallel
+    def __init__(self, env_id: str, num_envs: int, kwargs: dict, seconds: float, threads: bool | None = None):
+        default = batch.THREADS_FROM
+        if threads is not None:
+            batch.THREADS_FROM = 1 if threads else num_envs + 1
+        try:
+            self.env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
+        finally:
+            batch.THREADS_FROM = default
         self.num_envs = num_envs
         self.env.reset(seed=0)
         rng = np.random.default_rng(0)
         warm_up = random_actions(self.env.action_space, 20, rng)
-        self._step_all(warm_up[:10])  # compiles or loads the parallel loop if it was forced on
+        self._step_all(warm_up[:10])  # compiles or loads the threaded step if it was forced on
         start = time.perf_counter()
         self._step_all(warm_up[10:])
         per_call = (time.perf_counter() - start) / 10
@@ -136,8 +141,9 @@ class VectorRun:
             self.env.step(action)
 
     @property
-    def parallel(self) -> bool:
-        return bool(self.env.unwrapped._batch.parallel)
+    def threads(self) -> int:
+        """The threads our env steps on (1 for other envs)."""
+        return self.env.unwrapped._batch.threads if hasattr(self.env.unwrapped, "_batch") else 1
 
     def __call__(self) -> float:
         start = time.perf_counter()
@@ -148,32 +154,32 @@ class VectorRun:
         self.env.close()
 
 
-def vector_rates(sizes, seconds: float, repeats: int) -> tuple[dict[str, list[float]], list[bool]]:
-    """Steps per second of each env of :data:`VECTOR` at each N, and whether our env ran its parallel loop there."""
-    rates, parallel = {name: [] for name in VECTOR}, []
+def vector_rates(sizes, seconds: float, repeats: int) -> tuple[dict[str, list[float]], list[int]]:
+    """Steps per second of each env of :data:`VECTOR` at each N, and the threads our env stepped on there."""
+    rates, threads = {name: [] for name in VECTOR}, []
     for n in sizes:
         runs = {name: VectorRun(env_id, n, kwargs, seconds) for name, (env_id, kwargs) in VECTOR.items()}
         for name, rate in medians_in_turns(runs, repeats).items():
             rates[name].append(rate)
-        parallel.append(runs["upright"].parallel)
+        threads.append(runs["upright"].threads)
         for run in runs.values():
             run.close()
-    return rates, parallel
+    return rates, threads
 
 
-def parallel_rows(sizes, seconds: float, repeats: int) -> list[list[object]]:
-    """Our vector env with the parallel loop off and on at each N, both tasks, timed in turns."""
+def thread_rows(sizes, seconds: float, repeats: int) -> list[list[object]]:
+    """Our vector env on one thread and on numba's threads at each N, both tasks, timed in turns."""
     rows = []
     for n in sizes:
         runs = {
-            (task, parallel): VectorRun(rd.ENV_ID, n, {"task": task}, seconds, parallel=parallel)
+            (task, threads): VectorRun(rd.ENV_ID, n, {"task": task}, seconds, threads=threads)
             for task in TASKS
-            for parallel in (False, True)
+            for threads in (False, True)
         }
         rates = medians_in_turns(runs, repeats)
         for task in TASKS:
             serial, threaded = rates[(task, False)], rates[(task, True)]
-            default = "parallel" if n >= engine.PARALLEL_FROM and numba.get_num_threads() > 1 else "serial"
+            default = batch.thread_count(n)
             rows.append([n, task, f"{serial / 1e6:.2f}", f"{threaded / 1e6:.2f}", f"{threaded / serial:.2f}", default])
         for run in runs.values():
             run.close()
@@ -245,7 +251,7 @@ def main() -> None:
         for name, value in times.items()
     ]
 
-    rates, parallel = vector_rates(SIZES, seconds, repeats)
+    rates, threads_used = vector_rates(SIZES, seconds, repeats)
     chart(SIZES, rates, args.out / "env_throughput.png")
     vector = [
         [
@@ -255,11 +261,11 @@ def main() -> None:
             f"{rates['CartPole-v1'][i] / 1e6:.3f}",
             f"{rates['upright'][i] / rates['CartPole-v1'][i]:.2f}",
             f"{rates['circle'][i] / rates['CartPole-v1'][i]:.2f}",
-            "parallel" if parallel[i] else "serial",
+            threads_used[i],
         ]
         for i, n in enumerate(SIZES)
     ]
-    threads = parallel_rows(PARALLEL_SIZES, seconds, repeats)
+    threads = thread_rows(THREAD_SIZES, seconds, repeats)
     compiled, heavy = compile_rows(warm_runs)
 
     write_markdown(
@@ -283,18 +289,18 @@ def main() -> None:
                     "CartPole-v1 M steps/s",
                     "upright / CartPole",
                     "circle / CartPole",
-                    "our loop",
+                    "our threads",
                 ],
                 vector,
             ),
             "",
             "![throughput](env_throughput.png)",
             "",
-            f"## Our vector env, parallel loop off and on ({numba.get_num_threads()} numba threads; the env turns it "
-            f"on from N = engine.PARALLEL_FROM = {engine.PARALLEL_FROM})",
+            f"## Our vector env on one thread and on {numba.get_num_threads()} numba threads (the env uses them from "
+            f"N = envs.batch.THREADS_FROM = {batch.THREADS_FROM})",
             "",
             table(
-                ["N", "task", "serial M steps/s", "parallel M steps/s", "parallel / serial", "the env's choice"],
+                ["N", "task", "1 thread M steps/s", "threads M steps/s", "threads / 1 thread", "the env's threads"],
                 threads,
             ),
             "",

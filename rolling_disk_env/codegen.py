@@ -14,9 +14,10 @@ The files are plain Python on floats, readable next to the paper, and what numba
   common-subexpression elimination, so one evaluation of the derivative takes two calls of
   :func:`rolling_disk_env.trig.sincos`.
 * ``_generated/<task>.py``, one per task of :data:`rolling_disk_env.tasks.TASKS`: for each integrator, the fused step
-  of a batch of disks through a control period (torques, integration and contact forces vectorized over the disks,
-  then disk by disk the domain and contact checks and the task's termination, reward terms, success and
-  observation), serial and parallel, and the reset, written from :data:`STEP_TEMPLATE` and :data:`RESET_TEMPLATE`.
+  of a share of a batch of disks through a control period, one loop over the disks that the compiler vectorizes
+  (the action's torques, integration, domain and contact checks, the task's termination, reward terms, success and
+  observation: the per-disk body :data:`FINISH_TEMPLATE` written out in it), with its callers for one share and for
+  several on threads, and the reset, written from :data:`STEP_TEMPLATE` and :data:`RESET_TEMPLATE`.
   Each records a hash of its task module's source, so that the engine refuses steps generated from an older task.
 """
 
@@ -407,20 +408,21 @@ def step_{method}(actions, lanes, goals, steps, error_sums, config, actuators, s
     (then nothing is stepped), or -1.\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_{method}_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-            observations, info, flags)
+        step_{method}_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+            weights, bounds, observations, info, flags)
     return bad
 
 
 @parallel_kernel
 def step_{method}_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
-    \"\"\":func:`step_{method}` for a batch of several shares, a share per thread.\"\"\"
+    \"\"\":func:`step_{method}` for a batch of several shares, a share per thread (the share index is cast to the
+    type the serial step passes, so that both call the same compiled share).\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(lanes.shape[1]):
-            step_{method}_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
-                bounds, observations, info, flags)
+            step_{method}_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+                weights, bounds, observations, info, flags)
     return bad
 """
 """The fused step of one task with one integrator, for a batch of disks."""

@@ -7,18 +7,16 @@ Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Py
 * the pieces every task's step shares, below: the action's torques, the error-controlled integration of a control
   period (``"dopri5"``), the contact checks, the domain check, the success rule;
 * the fused step of each task (``_generated/<task>.py``, written by :mod:`rolling_disk_env.codegen` from a template):
-  a batch of disks through a control period (integration vectorized over the disks), then each disk's observation,
-  reward terms, termination and info, serially or on numba's threads;
+  a share of a batch of disks through a control period, in one loop over the disks that the compiler vectorizes
+  (integration, contact forces and checks, the task's termination, reward terms, success and observation), called
+  for one share on the calling thread or for several at once on numba's threads;
 * the batch loops of the model API (:mod:`rolling_disk_env.dynamics`, :func:`rolling_disk_env.simulate`).
 
 The single env and the vector env call the same generated functions, so they give the same transitions to the last
-bit. A batch keeps its disks in a *lanes* array (:data:`LANES` rows of N floats, updated in place), over which the
-integration vectorizes; the model API takes rows of states, (N, 8) float64.
-
-Threads: a batch of at least :data:`PARALLEL_FROM` disks runs on numba's threads (``NUMBA_NUM_THREADS``, by default
-one per core); smaller batches, and every batch in a process where ``NUMBA_NUM_THREADS=1``, run serially on one core.
-By default no batch is that large (see :data:`PARALLEL_FROM`): an env never competes with SB3's torch threads, a
-Ray trial or ``SubprocVecEnv``'s other children for the cores.
+bit. A batch keeps its disks in a *lanes* array (:data:`LANES` rows, one column per disk, updated in place) and
+returns its outputs in an info block (a column per disk, rows from :data:`ENERGY` to the reward terms at
+:data:`TERMS`); the model API takes rows of states, (N, 8) float64. How a batch is split into shares and when it
+uses threads: :mod:`rolling_disk_env.envs.batch`.
 """
 
 from __future__ import annotations

@@ -164,20 +164,21 @@ def step_euler(actions, lanes, goals, steps, error_sums, config, actuators, sett
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_euler_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-            observations, info, flags)
+        step_euler_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+            weights, bounds, observations, info, flags)
     return bad
 
 
 @parallel_kernel
 def step_euler_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
-    """:func:`step_euler` for a batch of several shares, a share per thread."""
+    """:func:`step_euler` for a batch of several shares, a share per thread (the share index is cast to the
+    type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(lanes.shape[1]):
-            step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
-                bounds, observations, info, flags)
+            step_euler_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+                weights, bounds, observations, info, flags)
     return bad
 
 
@@ -258,20 +259,21 @@ def step_symplectic_euler(actions, lanes, goals, steps, error_sums, config, actu
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_symplectic_euler_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-            observations, info, flags)
+        step_symplectic_euler_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+            weights, bounds, observations, info, flags)
     return bad
 
 
 @parallel_kernel
 def step_symplectic_euler_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
-    """:func:`step_symplectic_euler` for a batch of several shares, a share per thread."""
+    """:func:`step_symplectic_euler` for a batch of several shares, a share per thread (the share index is cast to the
+    type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(lanes.shape[1]):
-            step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
-                bounds, observations, info, flags)
+            step_symplectic_euler_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+                weights, bounds, observations, info, flags)
     return bad
 
 
@@ -352,20 +354,21 @@ def step_rk4(actions, lanes, goals, steps, error_sums, config, actuators, settin
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_rk4_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-            observations, info, flags)
+        step_rk4_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+            weights, bounds, observations, info, flags)
     return bad
 
 
 @parallel_kernel
 def step_rk4_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
-    """:func:`step_rk4` for a batch of several shares, a share per thread."""
+    """:func:`step_rk4` for a batch of several shares, a share per thread (the share index is cast to the
+    type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(lanes.shape[1]):
-            step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
-                bounds, observations, info, flags)
+            step_rk4_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+                weights, bounds, observations, info, flags)
     return bad
 
 
@@ -430,18 +433,19 @@ def step_dopri5(actions, lanes, goals, steps, error_sums, config, actuators, set
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_dopri5_share(0, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-            observations, info, flags)
+        step_dopri5_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+            weights, bounds, observations, info, flags)
     return bad
 
 
 @parallel_kernel
 def step_dopri5_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
-    """:func:`step_dopri5` for a batch of several shares, a share per thread."""
+    """:func:`step_dopri5` for a batch of several shares, a share per thread (the share index is cast to the
+    type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(lanes.shape[1]):
-            step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights,
-                bounds, observations, info, flags)
+            step_dopri5_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
+                weights, bounds, observations, info, flags)
     return bad

@@ -28,7 +28,7 @@ from rolling_disk_env import engine
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.tasks.base import TRACK
 
-THREADS_FROM = 4096
+THREADS_FROM = 1024
 """Batches of this many disks or more step on several threads (``benchmarks/bench_env.py`` measures the threaded
 step against the serial one around it)."""
 

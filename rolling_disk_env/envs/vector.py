@@ -40,7 +40,8 @@ class RollingDiskVectorEnv(VectorEnv):
     Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)`` (or ``seed[i]`` from a list), as
     ``SyncVectorEnv`` does, and draws its episodes exactly as a single env with that seed would: both run the same
     compiled kernels, so the transitions are equal to the last bit. ``reset(options={"state": X})`` takes initial
-    states of shape (N, 8). The batch steps serially, vectorized over the disks (threads: ``engine.PARALLEL_FROM``).
+    states of shape (N, 8). The batch steps vectorized over the disks, on numba's threads from
+    ``rolling_disk_env.envs.batch.THREADS_FROM`` disks (``NUMBA_NUM_THREADS=1`` keeps it on one).
     Rendering is not offered: render one disk with the single env.
     """
 
