@@ -9,7 +9,7 @@ without torques, RK4 steps of 0.01 s on the full model.
 2. N disks in one call, per disk-step: ``engine.advance`` on rows (N, 8), the model API's serial loop; the RK4 step
    of the vector env's kernels on a lanes array (one column per disk: the loop the compiler vectorizes, as in the
    fused step of ``_generated/<task>.py``, timed here alone in a loop of this script); and the whole fused step of
-   the vector env (``upright``, serial loop: RK4, contact forces, observation, reward, termination) for scale.
+   the vector env (``upright`` on one thread: RK4, contact forces, observation, reward, termination) for scale.
 3. ``rolling_disk_env.trig.sincos`` in a compiled loop over N angles against libm's ``math.sin`` and ``math.cos``
    in the same loop (numba calls libm, which keeps the loop scalar), and numpy's ``np.sin`` and ``np.cos``, per
    angle (a sine and a cosine), angles uniform in [-4, 4] rad; with the largest difference from libm in ulps.
@@ -27,6 +27,7 @@ from _common import arguments, median_seconds, table, write_markdown
 import rolling_disk_env as rd
 from rolling_disk_env import engine, trig
 from rolling_disk_env._generated import kernels
+from rolling_disk_env.envs import batch as envs_batch
 from rolling_disk_env.integrators import EVALUATIONS_PER_STEP
 
 DT = 0.01
@@ -102,10 +103,11 @@ def one_disk_rows(repeat: int) -> list[list[object]]:
 def batch_rows(sizes, repeat: int) -> list[list[object]]:
     env_step = {}
     for n in sizes:
+        threads_from, envs_batch.THREADS_FROM = envs_batch.THREADS_FROM, n + 1  # one thread: the cost a disk
         env = gym.make_vec(rd.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+        envs_batch.THREADS_FROM = threads_from
         env.reset(seed=0)
         batch = env.unwrapped._batch
-        batch.parallel = False
         out, actions = batch.outputs(), np.zeros((n, 2), dtype=np.float32)
         batch.step(actions, out)
         number = max(3, 200_000 // n)
@@ -199,7 +201,7 @@ def main() -> None:
                     "M disk-steps/s",
                     "lanes loop ns",
                     "M disk-steps/s",
-                    "vector env's fused step, serial, ns",
+                    "vector env's fused step, one thread, ns",
                     "RK4's share of the fused step",
                 ],
                 batch,

@@ -33,14 +33,31 @@ OBSERVATION = TERMS + 7
 @kernel
 def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds,
     observations, info, flags):
-    """Starts an episode in each disk of ``mask``: its disk constants (those randomized, in the order m, g, r),
-    then the task's goal and initial state from the values drawn in its ranges, all from the episode's uniforms in
-    [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of ``numpy.random.Generator.random``), or taken as
-    given in ``uniforms`` when ``rngs`` has no rows; a row of ``given`` (8 floats; NaN: none) replaces the initial
-    state."""
+    """Starts an episode in each disk of ``mask`` (see :func:`reset_disks`)."""
+    reset_disks(np.int64(0), np.int64(mask.shape[0]), mask, rngs, uniforms, given, lanes, goals, steps, error_sums,
+        config, disk_ranges, ranges, settings, bounds, observations, info, flags)
+
+
+@parallel_kernel
+def reset_threads(share, mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges,
+    settings, bounds, observations, info, flags):
+    """:func:`reset` for a batch in shares of ``share`` disks, a share per thread."""
+    for k in prange((mask.shape[0] + share - 1) // share):
+        reset_disks(np.int64(k * share), np.int64(min(mask.shape[0], (k + 1) * share)), mask, rngs, uniforms, given,
+            lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds, observations, info, flags)
+
+
+@kernel
+def reset_disks(start, stop, mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges,
+    settings, bounds, observations, info, flags):
+    """Starts an episode in each disk of ``mask`` from start to stop - 1: its disk constants (those randomized, in
+    the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all from the
+    episode's uniforms in [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of
+    ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows; a row of
+    ``given`` (8 floats; NaN: none) replaces the initial state."""
     options = (settings[0], settings[1], settings[2])
     values = np.empty(ranges.shape[0])
-    for i in range(mask.shape[0]):
+    for i in range(start, stop):
         if not mask[i]:
             continue
         if rngs.shape[0]:

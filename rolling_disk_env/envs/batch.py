@@ -10,7 +10,7 @@ Threads: a batch of at least :data:`THREADS_FROM` disks is split into one share 
 (``NUMBA_NUM_THREADS``, by default one per core), stepped at once (:func:`thread_count`); smaller batches, and every
 batch in a child process (``SubprocVecEnv``'s, whose siblings share the cores) or where ``NUMBA_NUM_THREADS=1``, have
 one share, stepped on the calling thread. The disks of a share are independent of the others, so the threads change
-no result. Resets run on the calling thread.
+no result. Resets run on the same threads, a share each.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from rolling_disk_env import engine
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.tasks.base import TRACK
 
-THREADS_FROM = 1024
+THREADS_FROM = 2048
 """Batches of this many disks or more step on several threads (``benchmarks/bench_env.py`` measures the threaded
 step against the serial one around it)."""
 
@@ -142,12 +142,13 @@ class DiskBatch:
     def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None):
         task = config.task
         steps = engine.task_steps(task)
-        self._reset = steps.reset
         self.num_envs = num_envs
         self.threads = thread_count(num_envs)
         self._step = getattr(steps, f"step_{config.integrator}" + ("_threads" if self.threads > 1 else ""))
         self.share = columns(-(-num_envs // self.threads))
         self.width = width = self.threads * self.share
+        # Resets on threads take the share as their first argument.
+        self._reset = functools.partial(steps.reset_threads, self.share) if self.threads > 1 else steps.reset
         if num_envs >= HEAP_FROM:
             keep_freed_memory()
         self.terms = len(task.reward_weights)
