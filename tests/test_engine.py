@@ -2,6 +2,7 @@
 sources and works where the package is read-only, PCG64 draws numpy's stream, stale task steps are refused."""
 
 import json
+import multiprocessing
 import os
 import shutil
 import subprocess
@@ -15,7 +16,7 @@ from gymnasium.utils import seeding
 
 import rolling_disk_env as rd
 from rolling_disk_env import engine, jit, pcg64
-from rolling_disk_env.envs.batch import THREADS_FROM, columns
+from rolling_disk_env.envs.batch import THREADS_FROM, columns, thread_count
 from rolling_disk_env.tasks import TASKS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -169,6 +170,14 @@ def test_a_large_batch_has_shares_of_rows_of_an_odd_number_of_cache_lines(num_en
     observations, rewards, terminated, _, infos = env.step(np.zeros((num_envs, 2), dtype=np.float32))
     assert observations.shape == (num_envs, 4) and rewards.shape == terminated.shape == (num_envs,)
     assert np.all(np.isfinite(observations)) and np.all(np.isfinite(rewards))
+
+
+def test_a_child_process_steps_on_one_thread():
+    # SubprocVecEnv's children share the cores with their siblings: each steps its batch on the calling thread.
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        assert pool.apply(thread_count, (THREADS_FROM,)) == 1
+    assert thread_count(THREADS_FROM) == jit.numba.get_num_threads()
+    assert thread_count(THREADS_FROM - 1) == 1
 
 
 def test_gym_make_env_is_the_engines_env():
