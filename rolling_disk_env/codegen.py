@@ -513,7 +513,8 @@ _ADVANCE = {
             for i in range(lanes.shape[2]):
                 tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
                 m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
-                x = kernels.state_{method}_step({state}, dt, tau_spin, tau_steer, m, g, r)
+                x = {state_substep}
+                x = kernels.state_{method}_step(x, dt, tau_spin, tau_steer, m, g, r)
 {store_substep}
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
@@ -552,6 +553,7 @@ def generate_steps(task) -> str:
     step_fields = {  # the step's come in shares: [row, k, i]
         **fields,
         "{state}": _row_tuple("lanes", 8, column="k, i"),
+        "{state_substep}": _row_tuple("lanes", 8, column="k, i", indent=16),
         "{kept}": _row_tuple("lanes", 8, column="k, i", first="PREVIOUS + "),
         "{goal}": _row_tuple("goals", len(task.goal_names), column="k, i"),
         "{store_state}": _stores("lanes", _ITEMS[:8], _items("x", 8), 8, "k, i"),
@@ -622,9 +624,10 @@ def _items(name: str, size: int) -> list[str]:
     return [f"{name}[{j}]" for j in range(size)]
 
 
-def _row_tuple(array: str, size: int, row: bool = True, column: str = "", first: str = "") -> str:
+def _row_tuple(array: str, size: int, row: bool = True, column: str = "", first: str = "", indent: int = 8) -> str:
     """``(array[i, 0], array[i, 1], ...)``, or ``(array[0, column], ...)`` (from row ``first`` + 0), or
-    ``(array[0], ...)`` (not ``row``): a tuple of ``size`` floats, which numba keeps in registers."""
+    ``(array[0], ...)`` (not ``row``): a tuple of ``size`` floats, which numba keeps in registers; four items a line
+    when long, for a statement indented by ``indent``."""
     if column:
         items = [f"{array}[{first}{j}, {column}]" for j in range(size)]
     else:
@@ -633,7 +636,7 @@ def _row_tuple(array: str, size: int, row: bool = True, column: str = "", first:
     if len(one_line) <= 110:
         return one_line
     rows = [", ".join(items[j : j + 4]) + "," for j in range(0, size, 4)]
-    return "(\n" + "".join(f"            {line}\n" for line in rows) + "        )"
+    return "(\n" + "".join(" " * (indent + 4) + f"{line}\n" for line in rows) + " " * indent + ")"
 
 
 def _stores(array: str, rows: list[str], sources: list[str], indent: int, column: str = "i") -> str:

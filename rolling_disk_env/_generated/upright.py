@@ -125,10 +125,11 @@ def step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuat
             for i in range(lanes.shape[2]):
                 tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
                 m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
-                x = kernels.state_euler_step((
-            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
-            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
-        ), dt, tau_spin, tau_steer, m, g, r)
+                x = (
+                    lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+                    lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+                )
+                x = kernels.state_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
                 lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
                 lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
     for i in range(lanes.shape[2]):
@@ -220,10 +221,11 @@ def step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, con
             for i in range(lanes.shape[2]):
                 tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
                 m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
-                x = kernels.state_symplectic_euler_step((
-            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
-            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
-        ), dt, tau_spin, tau_steer, m, g, r)
+                x = (
+                    lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+                    lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+                )
+                x = kernels.state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
                 lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
                 lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
     for i in range(lanes.shape[2]):
@@ -315,10 +317,11 @@ def step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuator
             for i in range(lanes.shape[2]):
                 tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
                 m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
-                x = kernels.state_rk4_step((
-            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
-            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
-        ), dt, tau_spin, tau_steer, m, g, r)
+                x = (
+                    lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+                    lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+                )
+                x = kernels.state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r)
                 lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
                 lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
     for i in range(lanes.shape[2]):
