@@ -387,10 +387,11 @@ STEP_TEMPLATE = """
 def step_{method}_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
     \"\"\"One control period with {method} of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
+    and each disk's outputs.
 
     The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap.\"\"\"
     settings = {settings}

@@ -53,13 +53,14 @@ STATE = 0
 TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_ERROR = range(8, 16)
 PREVIOUS = 16
 LANES = 24
-"""Rows of a batch's *lanes* array (rows of N floats, one column per disk), which the step reads and writes in place:
+"""Rows of a batch's *lanes* array (a column per disk, and idle padding columns), which the step reads and writes in
+place:
 the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step size (s),
 the task's tracking error after the last step, and, with substeps, the state at the start of the control period
-(8 rows from PREVIOUS). A loop over the disks reads and writes rows, so it vectorizes."""
+(8 rows from PREVIOUS). A loop over the disks reads and writes rows, so it can vectorize."""
 
 ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD, STATUS = range(8, 15)
-"""Rows of an info block (rows of N floats, one column per disk) after the 8 state rows: energy (J), contact force
+"""Rows of an info block (a column per disk, and padding) after the 8 state rows: energy (J), contact force
 (N), normal force (N), the friction coefficient the contact needs, the reward, the termination code
 (:data:`TERMINATIONS`); then the reward terms from row TERMS, then the observation (clipped to its bounds)."""
 TERMS = 15
@@ -70,8 +71,6 @@ PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_RULE, SUCCESS_BOUND =
 """Entries of an env's ``config`` array: control period (s), fixed substeps, dopri5's tolerances, the friction
 coefficient (inf: ideal rolling), episode steps before truncation (0: none, as in the single env, whose TimeLimit
 wrapper truncates), the task's success rule and bound."""
-NEXT_STEP, SAME_STEP, DISABLED = range(3)
-"""Autoreset modes, as Gymnasium's ``AutoresetMode``."""
 
 
 @inline_kernel

@@ -172,6 +172,17 @@ def test_a_large_batch_has_shares_of_rows_of_an_odd_number_of_cache_lines(num_en
     assert np.all(np.isfinite(observations)) and np.all(np.isfinite(rewards))
 
 
+def test_the_padding_of_a_batch_takes_ordinary_dopri5_steps():
+    # Padding columns are idle disks at rest: with a step size of 0 s, dopri5 would run to its substep limit on them.
+    env = rd.RollingDiskVectorEnv(num_envs=256, integrator="dopri5")
+    env.reset(seed=0)
+    batch = env._batch
+    out = batch.outputs()
+    batch.step(np.zeros((256, 2), dtype=np.float32), out)
+    padding = out.blocks[1][engine.STATUS, 256:]
+    assert len(padding) > 0 and np.all(padding == 0)
+
+
 def test_a_child_process_steps_on_one_thread():
     # SubprocVecEnv's children share the cores with their siblings: each steps its batch on the calling thread.
     with multiprocessing.get_context("spawn").Pool(1) as pool:

@@ -108,10 +108,11 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, lanes, goals, steps, e
 def step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
+    and each disk's outputs.
 
     The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap."""
     settings = (settings[0], settings[1], settings[2])
@@ -208,10 +209,11 @@ def step_euler_threads(actions, lanes, goals, steps, error_sums, config, actuato
 def step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
+    and each disk's outputs.
 
     The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap."""
     settings = (settings[0], settings[1], settings[2])
@@ -308,10 +310,11 @@ def step_symplectic_euler_threads(actions, lanes, goals, steps, error_sums, conf
 def step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
+    and each disk's outputs.
 
     The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap."""
     settings = (settings[0], settings[1], settings[2])
@@ -408,10 +411,11 @@ def step_rk4_threads(actions, lanes, goals, steps, error_sums, config, actuators
 def step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
     observations, info, flags):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes), the integration and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
+    and each disk's outputs.
 
     The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations``); the loop runs over a whole share, padding included
+    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap."""
     settings = (settings[0], settings[1], settings[2])

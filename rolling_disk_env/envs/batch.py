@@ -3,8 +3,10 @@
 The single env is a batch of one; the vector env a batch of N. Both call the same generated kernels
 (``_generated/<task>.py``), so the same seeds give the same transitions to the last bit.
 
-Layout: a batch's arrays have a column per disk (``lanes[row, i]``), split into equal *shares*, each padded
-(:func:`columns`), so that each thread steps one share: the step sees them as ``[row, k, i]`` for disk i of share k.
+Layout: a batch's arrays have a column per disk (``lanes[row, i]``), split into *shares* of equal width, one per
+thread, each padded (:func:`columns`): the step sees them as ``[row, k, i]`` for disk i of share k. The disks fill
+the shares from the first, so the last share holds up to 16 (threads - 1) fewer disks than the others, and
+padding columns are idle disks at rest, stepped but never reported.
 
 Threads: a batch of at least :data:`THREADS_FROM` disks is split into one share per numba thread
 (``NUMBA_NUM_THREADS``, by default one per core), stepped at once (:func:`thread_count`); smaller batches, and every
@@ -70,7 +72,8 @@ def columns(num_envs: int) -> int:
     """Columns of a share of ``num_envs`` disks: ``num_envs``, and from 256 disks on a few more (idle, never
     reported), so that a row of the share spans an odd number of 64-byte cache lines. With rows of a power-of-two
     size, the dozens of rows a step reads and writes map to the same sets of the CPU's cache and evict each other:
-    measured at N = 4096 and 16384, a step took 31 to 37 ns a disk against 27 at N = 4104 and 16392."""
+    measured at N = 4096 and 16384, a step took 31 to 37 ns a disk against 27 at N = 4104 and 16392. (A row of the
+    whole batch spans threads times that: even with 2 threads, whose two halves were measured to keep the gain.)"""
     if num_envs < 256:
         return num_envs
     lines = -(-num_envs // 8)
@@ -146,7 +149,7 @@ class DiskBatch:
         self.threads = thread_count(num_envs)
         self._step = getattr(steps, f"step_{config.integrator}" + ("_threads" if self.threads > 1 else ""))
         self.share = columns(-(-num_envs // self.threads))
-        self.width = width = self.threads * self.share
+        width = self.threads * self.share
         # Resets on threads take the share as their first argument.
         self._reset = functools.partial(steps.reset_threads, self.share) if self.threads > 1 else steps.reset
         if num_envs >= HEAP_FROM:
@@ -156,6 +159,7 @@ class DiskBatch:
         # Per disk.
         self.lanes = np.zeros((engine.LANES, width))
         self.lanes[engine.MASS : engine.RADIUS + 1] = np.array(config.params.constants)[:, None]
+        self.lanes[engine.STEP_SIZE] = config.dt  # the padding's too: a dopri5 step of 0 s would never end
         self.goals = np.zeros((len(task.goal_names), width))
         self.steps = np.zeros(width, dtype=np.int64)
         # Tracking errors summed over each episode, a row per disk, for the success rule TRACK. An episode truncated

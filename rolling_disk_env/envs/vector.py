@@ -156,13 +156,13 @@ class RollingDiskVectorEnv(VectorEnv):
             raise ValueError(f"actions must be finite numbers, got {actions[bad]!r} for sub-environment {bad}")
         if resetting.any():
             self._batch.reset(resetting, out, self._rngs)
-        info, flags = out.info, out.flags
-        rewards, terminated, truncated = info[engine.REWARD], flags[engine.TERMINATED], flags[engine.TRUNCATED]
+        # Copies: views would keep the whole info block alive as long as the caller keeps them.
+        rewards = out.info[engine.REWARD].copy()
+        terminated, truncated = out.flags[engine.TERMINATED].copy(), out.flags[engine.TRUNCATED].copy()
         ended = terminated | truncated
         stepped = ~resetting
         if mode == AutoresetMode.SAME_STEP and ended.any():
             final = self._final(out, ended)
-            rewards, terminated, truncated = rewards.copy(), terminated.copy(), truncated.copy()
             self._batch.reset(ended, out, self._rngs)
             infos = self._infos(out, None, stepped & ~ended)
             infos.update(final)
