@@ -548,8 +548,8 @@ def generate_steps(task) -> str:
         "{given}": _row_tuple("given", 8),
         "{settings}": _row_tuple("settings", len(task.setting_names), row=False),
         "{success_at_start}": success_at_start,
-        "{store_state}": _stores("lanes", _ITEMS[:8], _items("x", 8), 8),
-        "{report}": _stores("info", [*_ITEMS[:8], *_REPORTED], reported, 8),
+        "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8),
+        "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8),
     }
     step_fields = {  # the step's come in shares: [row, k, i]
         **fields,
@@ -557,8 +557,8 @@ def generate_steps(task) -> str:
         "{state_substep}": _row_tuple("lanes", 8, column="k, i", indent=16),
         "{kept}": _row_tuple("lanes", 8, column="k, i", first="PREVIOUS + "),
         "{goal}": _row_tuple("goals", len(task.goal_names), column="k, i"),
-        "{store_state}": _stores("lanes", _ITEMS[:8], _items("x", 8), 8, "k, i"),
-        "{report}": _stores("info", [*_ITEMS[:8], *_REPORTED], reported, 8, "k, i"),
+        "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8, "k, i"),
+        "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8, "k, i"),
     }
     finish = _fill(
         FINISH_TEMPLATE,
@@ -585,7 +585,7 @@ def generate_steps(task) -> str:
     for tableau in TABLEAUS:
         advance = _ADVANCE["dopri5" if tableau.error else "fixed"]
         template = STEP_TEMPLATE.replace("{advance}", advance).replace("{finish}", finish).replace("{track}", track)
-        store_substep = _stores("lanes", _ITEMS[:8], _items("x", 8), 16, "k, i")
+        store_substep = _stores("lanes", _STATE_ROWS, _items("x", 8), 16, "k, i")
         steps.append(_fill(template, {**step_fields, "{store_substep}": store_substep, "{method}": tableau.name}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
@@ -615,7 +615,8 @@ def generate_steps(task) -> str:
     return header + "\n" + imports + "\n\n" + _fill(RESET_TEMPLATE, fields) + "".join(steps)
 
 
-_ITEMS = [str(j) for j in range(16)]
+_STATE_ROWS = [str(j) for j in range(8)]
+"""Rows of the state in a lanes array and an info block."""
 _REPORTED = ["ENERGY", "LAMBDA1", "LAMBDA2", "NORMAL_FORCE", "REQUIRED_FRICTION", "STATUS"]
 """Rows of an info block after the state, written from the contact values and the termination code."""
 
