@@ -67,10 +67,11 @@ TERMS = 15
 TERMINATED, TRUNCATED, SUCCESS = range(3)
 """Rows of a flags block (booleans, one column per disk)."""
 
-PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_RULE, SUCCESS_BOUND = range(8)
+PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_BOUND = range(7)
 """Entries of an env's ``config`` array: control period (s), fixed substeps, dopri5's tolerances, the friction
 coefficient (inf: ideal rolling), episode steps before truncation (0: none, as in the single env, whose TimeLimit
-wrapper truncates), the task's success rule and bound."""
+wrapper truncates), the bound of the task's success rule (the rule itself is written into the task's generated
+step)."""
 
 
 @inline_kernel

@@ -183,7 +183,6 @@ class EnvConfig:
             engine.ATOL: self.atol,
             engine.FRICTION: math.inf if self.friction_coefficient is None else self.friction_coefficient,
             engine.MAX_STEPS: max_episode_steps or 0,
-            engine.SUCCESS_RULE: self.task.success,
             engine.SUCCESS_BOUND: self.task.success_bound,
         }
         return np.array([values[key] for key in sorted(values)], dtype=np.float64)
