@@ -365,7 +365,7 @@ FINISH_TEMPLATE = """\
 {store_state}
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = {goal}
-        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
+        code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
 {report}
@@ -375,7 +375,7 @@ FINISH_TEMPLATE = """\
         observation = task.observe(x, goal, settings)
 {observe}{tracking}
         flags[TERMINATED, k, i] = code != RUNNING
-        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = {success}"""
 """The end of a control period, for disk i of one task: the end of the loop body of every fused step (the fields in
 braces are filled in per task). Written out in the loop, not called: numba counts references to the arrays passed
@@ -384,17 +384,21 @@ to a function, and those calls keep a loop from vectorizing."""
 STEP_TEMPLATE = """
 
 @kernel
-def step_{method}_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_{method}_share(k, actions, batch, setup, out):
     \"\"\"One control period with {method} of the disks of share k of the batch: the action's torques, then, in one
     loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
     and each disk's outputs.
 
-    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
+    ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
+    :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
+    last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
+    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap.\"\"\"
+    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
+    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2.\"\"\"
+    {unpack}
     settings = {settings}
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
 {advance}
@@ -403,57 +407,51 @@ def step_{method}_share(k, actions, lanes, goals, steps, error_sums, config, act
 
 
 @kernel
-def step_{method}(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
-    info, flags):
+def step_{method}(actions, batch, setup, out):
     \"\"\"Steps a batch of one share (see :func:`step_{method}_share`); returns the first disk with a non-finite action
     (then nothing is stepped), or -1.\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_{method}_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-            weights, bounds, observations, info, flags)
+        step_{method}_share(np.int64(0), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
-def step_{method}_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_{method}_threads(actions, batch, setup, out):
     \"\"\":func:`step_{method}` for a batch of several shares, a share per thread (the share index is cast to the
     type the serial step passes, so that both call the same compiled share).\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in prange(lanes.shape[1]):
-            step_{method}_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-                weights, bounds, observations, info, flags)
+        for k in prange(batch[0].shape[1]):
+            step_{method}_share(np.int64(k), actions, batch, setup, out)
     return bad
 """
 """The fused step of one task with one integrator, for a batch of disks."""
 
 RESET_TEMPLATE = """
 @kernel
-def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds,
-    observations, info, flags):
+def reset(mask, rngs, uniforms, given, batch, setup, out):
     \"\"\"Starts an episode in each disk of ``mask`` (see :func:`reset_disks`).\"\"\"
-    reset_disks(np.int64(0), np.int64(mask.shape[0]), mask, rngs, uniforms, given, lanes, goals, steps, error_sums,
-        config, disk_ranges, ranges, settings, bounds, observations, info, flags)
+    reset_disks(np.int64(0), np.int64(mask.shape[0]), mask, rngs, uniforms, given, batch, setup, out)
 
 
 @parallel_kernel
-def reset_threads(share, mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags):
+def reset_threads(share, mask, rngs, uniforms, given, batch, setup, out):
     \"\"\":func:`reset` for a batch in shares of ``share`` disks, a share per thread.\"\"\"
     for k in prange((mask.shape[0] + share - 1) // share):
-        reset_disks(np.int64(k * share), np.int64(min(mask.shape[0], (k + 1) * share)), mask, rngs, uniforms, given,
-            lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds, observations, info, flags)
+        start, stop = np.int64(k * share), np.int64(min(mask.shape[0], (k + 1) * share))
+        reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out)
 
 
 @kernel
-def reset_disks(start, stop, mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags):
+def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
     \"\"\"Starts an episode in each disk of ``mask`` from start to stop - 1: its disk constants (those randomized, in
     the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all from the
     episode's uniforms in [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows; a row of
-    ``given`` (8 floats; NaN: none) replaces the initial state.\"\"\"
+    ``given`` (8 floats; NaN: none) replaces the initial state. The arrays of ``batch``, ``setup`` and ``out`` (see
+    :func:`step_rk4_share`) come whole: ``[row, i]`` for disk i.\"\"\"
+    {unpack}
     options = {settings}
     values = np.empty(ranges.shape[0])
     for i in range(start, stop):
@@ -498,12 +496,13 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, lanes, goals, steps, e
 """Starting episodes of one task."""
 
 _ADVANCE = {
-    "dopri5": """    for i in range(lanes.shape[2]):
+    "dopri5": """    period, rtol, atol = config[PERIOD], config[RTOL], config[ATOL]
+    for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = {state}
         new, lanes[STEP_SIZE, k, i], ok = engine.advance_adaptive(
-            x, config[PERIOD], lanes[STEP_SIZE, k, i], tau_spin, tau_steer, m, g, r, config[RTOL], config[ATOL]
+            x, period, lanes[STEP_SIZE, k, i], tau_spin, tau_steer, m, g, r, rtol, atol
         )
         x, code = engine.in_domain(x, new, RUNNING if ok else SUBSTEP_LIMIT)""",
     "fixed": """    substeps = int(config[SUBSTEPS])
@@ -536,7 +535,7 @@ at the start of an episode."""
 
 def generate_steps(task) -> str:
     """Source of ``_generated/<task>.py``, the fused steps of a :class:`rolling_disk_env.tasks.Task` subclass."""
-    from rolling_disk_env.engine import source_hash
+    from rolling_disk_env.engine import BatchArrays, OutputArrays, SetupArrays
     from rolling_disk_env.tasks.base import REACH, SURVIVE, TRACK
 
     module = inspect.getmodule(task)
@@ -546,6 +545,10 @@ def generate_steps(task) -> str:
     reported = [*_items("x", 8), *_items("contact", 5), "code"]
     fields = {  # the reset's arrays have a column per disk: [row, i]
         "{given}": _row_tuple("given", 8),
+        "{unpack}": "\n    ".join(
+            f"{', '.join(bundle._fields)} = {name}"
+            for name, bundle in (("batch", BatchArrays), ("setup", SetupArrays), ("out", OutputArrays))
+        ),
         "{settings}": _row_tuple("settings", len(task.setting_names), row=False),
         "{success_at_start}": success_at_start,
         "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8),
@@ -599,14 +602,14 @@ def generate_steps(task) -> str:
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
             "    ATOL, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, MASS, MAX_STEPS, NORMAL_FORCE,",
-            "    PERIOD, PREVIOUS, RADIUS, REQUIRED_FRICTION, REWARD, RTOL, STATUS, STEP_SIZE, SUBSTEP_LIMIT,",
-            "    SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,",
+            "    PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL, RUNNING, STATUS,",
+            "    STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED,",
+            "    TERMS, TRACKING_ERROR, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
-            "from rolling_disk_env.tasks.base import REACHED, RUNNING",
             f"import {module.__name__} as task",
             "",
-            f'TASK_SOURCE = "{source_hash(module)}"',
+            f'TASK_SOURCE = "{task.source_hash()}"',
             '"""The sha256 of the task module these steps were generated from."""',
             f"OBSERVATION = TERMS + {terms}",
             '"""The first row of the observation in an info block, after the reward terms."""',

@@ -20,15 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rolling_disk_env.constants import LEAN_LIMIT, LEAN_MARGIN
+
 STATE_NAMES = ("c1", "c2", "phi", "theta", "psi", "dphi", "dtheta", "dpsi")
 LEAN_NAMES = ("theta", "dphi", "dtheta", "dpsi")
 LEAN_INDICES = (3, 5, 6, 7)
 """Where the lean state's components sit in the full state."""
-
-LEAN_MARGIN = 0.01
-"""rad. How far from the flat disk (|theta| = pi/2) the model's domain stops: there 1/cos(theta) = 100."""
-LEAN_LIMIT = math.pi / 2 - LEAN_MARGIN
-"""rad. The model's domain is |theta| < LEAN_LIMIT."""
 
 
 class OutOfDomainError(ValueError):

@@ -21,19 +21,14 @@ uses threads: :mod:`rolling_disk_env.envs.batch`.
 
 from __future__ import annotations
 
-import hashlib
-import importlib
-import inspect
 import math
-from types import ModuleType
+from typing import NamedTuple
 
 import numpy as np
 
 from rolling_disk_env._generated import kernels
-from rolling_disk_env.dynamics import LEAN_LIMIT
-from rolling_disk_env.integrators import ENGINE_METHODS
+from rolling_disk_env.constants import ENGINE_METHODS, LEAN_LIMIT
 from rolling_disk_env.jit import inline_kernel, kernel
-from rolling_disk_env.tasks.base import RUNNING
 
 METHODS = ENGINE_METHODS
 """The engine's integrators, by code (their index): fixed steps, then the error-controlled Dormand-Prince 5(4)."""
@@ -42,12 +37,12 @@ MAX_ADAPTIVE_SUBSTEPS = 10_000
 """Steps (accepted or rejected) that ``"dopri5"`` may take in one control period or output interval; past it the
 episode ends with ``"substep_limit"`` (``simulate`` raises) instead of looping on."""
 
-OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT = range(2, 6)
-"""Termination codes of a disk after a step, beside the tasks' RUNNING (0), FALLEN (1) and REACHED (6)
-(:mod:`rolling_disk_env.tasks.base`)."""
+RUNNING, FALLEN, OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT, REACHED = range(7)
+"""Termination codes of a disk after a step: the episode goes on; the task's own (a task's ``termination`` returns
+RUNNING, FALLEN or REACHED); the integrator leaving the model's domain, the contact needing more friction than
+``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""
 TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "substep_limit", "reached")
-"""``info["termination"]`` of each code: the task's fall (or goal), the integrator leaving the model's domain, the
-contact needing more friction than ``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""
+"""``info["termination"]`` of each code."""
 
 STATE = 0
 TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_ERROR = range(8, 16)
@@ -72,6 +67,63 @@ PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_BOUND = range(7)
 coefficient (inf: ideal rolling), episode steps before truncation (0: none, as in the single env, whose TimeLimit
 wrapper truncates), the bound of the task's success rule (the rule itself is written into the task's generated
 step)."""
+
+
+class BatchArrays(NamedTuple):
+    """What a batch of disks carries from one step to the next, updated in place by the step and the reset.
+
+    The generated kernels take the arrays of each bundle as a plain tuple, in this order, and unpack it into these
+    names (numba's dispatcher types a plain tuple of arrays in about half the time of a named one).
+
+    Attributes:
+        lanes: (LANES, columns) float64, the rows described at :data:`LANES`.
+        goals: (goal size, columns) float64, each episode's targets (the task's ``goal_names``).
+        steps: (columns,) int64, steps since each episode started.
+        error_sums: (columns, entries) float64, running sums of the task's tracking error (success rule TRACK).
+    """
+
+    lanes: np.ndarray
+    goals: np.ndarray
+    steps: np.ndarray
+    error_sums: np.ndarray
+
+
+class SetupArrays(NamedTuple):
+    """An env's settings, as the kernels read them (never written).
+
+    Attributes:
+        config: the entries from :data:`PERIOD` on (float64).
+        actuators: (action size, 2): per action component, the torque it drives (0 spin, 1 steer) and the torque
+            of action +1 (N m).
+        settings: the task's options (its ``setting_names``).
+        weights: the reward terms' weights.
+        bounds: the observation's bounds (float32).
+        disk_ranges: (3, 3): per disk constant (m, g, r), its range and whether it is drawn.
+        ranges: (drawn values, 2): the ranges of the task's goal and initial state.
+    """
+
+    config: np.ndarray
+    actuators: np.ndarray
+    settings: np.ndarray
+    weights: np.ndarray
+    bounds: np.ndarray
+    disk_ranges: np.ndarray
+    ranges: np.ndarray
+
+
+class OutputArrays(NamedTuple):
+    """What a step or a reset writes, a column (a row for ``observations``) per disk.
+
+    Attributes:
+        observations: (columns, observation size) float32, clipped to the bounds.
+        info: (TERMS + terms + observation size, columns) float64: the rows from :data:`ENERGY` on, the reward terms
+            from row :data:`TERMS`, then the observation.
+        flags: (3, columns) bool: the rows :data:`TERMINATED`, :data:`TRUNCATED`, :data:`SUCCESS`.
+    """
+
+    observations: np.ndarray
+    info: np.ndarray
+    flags: np.ndarray
 
 
 @inline_kernel
@@ -315,24 +367,3 @@ def advance(method, states, torques, disks, dt, sizes, rtol, atol, status):
         theta = x[0] if lean else x[3]
         finite = math.isfinite(np.sum(x))
         status[i] = SUBSTEP_LIMIT if not ok else (RUNNING if finite and abs(theta) < LEAN_LIMIT else OUT_OF_DOMAIN)
-
-
-def source_hash(module: ModuleType) -> str:
-    """The sha256 of a module's source (a task's generated steps record their task's)."""
-    return hashlib.sha256(inspect.getsource(module).encode()).hexdigest()
-
-
-def task_steps(task) -> ModuleType:
-    """The generated steps of a task (``_generated/<name>.py``), checked against the task module's source.
-
-    Raises:
-        RuntimeError: the task module changed since its steps were generated, or they were never generated.
-    """
-    regenerate = "run `python -m rolling_disk_env.codegen`"
-    try:
-        steps = importlib.import_module(f"rolling_disk_env._generated.{task.name}")
-    except ModuleNotFoundError:
-        raise RuntimeError(f"task {task.name!r} has no generated steps: {regenerate}") from None
-    if steps.TASK_SOURCE != source_hash(inspect.getmodule(type(task))):
-        raise RuntimeError(f"task {task.name!r} changed since its steps were generated: {regenerate}")
-    return steps

@@ -19,8 +19,8 @@ import math
 
 import numpy as np
 
+from rolling_disk_env.constants import ENGINE_METHODS, LEAN_LIMIT
 from rolling_disk_env.dynamics import (
-    LEAN_LIMIT,
     LEAN_MODEL,
     MODELS,
     DiskParams,
@@ -32,8 +32,6 @@ from rolling_disk_env.dynamics import (
     is_number,
 )
 
-ENGINE_METHODS = ("euler", "symplectic_euler", "rk4", "dopri5")
-"""The methods the compiled engine integrates (their index is the engine's code for them)."""
 METHODS = (*ENGINE_METHODS, "dop853")
 EVALUATIONS_PER_STEP = {"euler": 1, "symplectic_euler": 2, "rk4": 4}
 """Derivative evaluations per step of the fixed-step methods (the cost unit of the benchmarks)."""

@@ -16,7 +16,7 @@ publishes (Sun Microsystems, 1993, ``__kernel_sin`` and ``__kernel_cos``): mathe
 
 from __future__ import annotations
 
-import math
+import numpy as np
 
 from rolling_disk_env.jit import inline_kernel
 
@@ -40,7 +40,7 @@ _C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.1359
 @inline_kernel
 def sincos(x):
     """``(sin(x), cos(x))`` for an angle ``x`` in rad (see the module docstring for the accuracy)."""
-    k = math.floor(x * _TWO_OVER_PI + 0.5)
+    k = np.floor(x * _TWO_OVER_PI + 0.5)
     r = (((x - k * _PI_OVER_2[0]) - k * _PI_OVER_2[1]) - k * _PI_OVER_2[2]) - k * _PI_OVER_2[3]
     z = r * r
     sine = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
@@ -49,7 +49,7 @@ def sincos(x):
     w = 1.0 - half
     cosine = w + (((1.0 - w) - half) + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6))))))
     # x = k pi/2 + r: turn (sin r, cos r) by the quadrant k mod 4.
-    quadrant = k - 4.0 * math.floor(0.25 * k)
+    quadrant = k - 4.0 * np.floor(0.25 * k)
     odd = (quadrant == 1.0) | (quadrant == 3.0)
     s = cosine if odd else sine
     c = sine if odd else cosine

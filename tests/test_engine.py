@@ -16,7 +16,7 @@ from gymnasium.utils import seeding
 
 import rolling_disk_env as rd
 from rolling_disk_env import engine, jit, pcg64
-from rolling_disk_env.envs.batch import THREADS_FROM, columns, thread_count
+from rolling_disk_env.envs.batch import THREADS_FROM, columns, task_steps, thread_count
 from rolling_disk_env.tasks import TASKS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -136,7 +136,7 @@ def test_kernels_cache_in_the_user_directory_when_the_package_is_read_only(tmp_p
 
 
 def test_steps_of_an_edited_task_are_refused(monkeypatch):
-    steps = engine.task_steps(TASKS["upright"]())
+    steps = task_steps(TASKS["upright"]())
     monkeypatch.setattr(steps, "TASK_SOURCE", "0" * 64)
     with pytest.raises(RuntimeError, match="codegen"):
         rd.RollingDiskEnv(task="upright")

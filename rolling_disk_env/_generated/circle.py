@@ -17,44 +17,44 @@ from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
     ATOL, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, MASS, MAX_STEPS, NORMAL_FORCE,
-    PERIOD, PREVIOUS, RADIUS, REQUIRED_FRICTION, REWARD, RTOL, STATUS, STEP_SIZE, SUBSTEP_LIMIT,
-    SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,
+    PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL, RUNNING, STATUS,
+    STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED,
+    TERMS, TRACKING_ERROR, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
-from rolling_disk_env.tasks.base import REACHED, RUNNING
 import rolling_disk_env.tasks.circle as task
 
-TASK_SOURCE = "6debf59b0d1ecefdf1244cabb4e2e033004b8638db6ee92f164ad50d7f115c8c"
+TASK_SOURCE = "8faa2fae80013f15efffc892d82387fee37a2b301398fabd3f8a24946a0baa6b"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
 
 
 @kernel
-def reset(mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds,
-    observations, info, flags):
+def reset(mask, rngs, uniforms, given, batch, setup, out):
     """Starts an episode in each disk of ``mask`` (see :func:`reset_disks`)."""
-    reset_disks(np.int64(0), np.int64(mask.shape[0]), mask, rngs, uniforms, given, lanes, goals, steps, error_sums,
-        config, disk_ranges, ranges, settings, bounds, observations, info, flags)
+    reset_disks(np.int64(0), np.int64(mask.shape[0]), mask, rngs, uniforms, given, batch, setup, out)
 
 
 @parallel_kernel
-def reset_threads(share, mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags):
+def reset_threads(share, mask, rngs, uniforms, given, batch, setup, out):
     """:func:`reset` for a batch in shares of ``share`` disks, a share per thread."""
     for k in prange((mask.shape[0] + share - 1) // share):
-        reset_disks(np.int64(k * share), np.int64(min(mask.shape[0], (k + 1) * share)), mask, rngs, uniforms, given,
-            lanes, goals, steps, error_sums, config, disk_ranges, ranges, settings, bounds, observations, info, flags)
+        start, stop = np.int64(k * share), np.int64(min(mask.shape[0], (k + 1) * share))
+        reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out)
 
 
 @kernel
-def reset_disks(start, stop, mask, rngs, uniforms, given, lanes, goals, steps, error_sums, config, disk_ranges, ranges,
-    settings, bounds, observations, info, flags):
+def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
     """Starts an episode in each disk of ``mask`` from start to stop - 1: its disk constants (those randomized, in
     the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all from the
     episode's uniforms in [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows; a row of
-    ``given`` (8 floats; NaN: none) replaces the initial state."""
+    ``given`` (8 floats; NaN: none) replaces the initial state. The arrays of ``batch``, ``setup`` and ``out`` (see
+    :func:`step_rk4_share`) come whole: ``[row, i]`` for disk i."""
+    lanes, goals, steps, error_sums = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags = out
     options = (settings[0], settings[1], settings[2], settings[3])
     values = np.empty(ranges.shape[0])
     for i in range(start, stop):
@@ -105,17 +105,23 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, lanes, goals, steps, e
 
 
 @kernel
-def step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_euler_share(k, actions, batch, setup, out):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in one
     loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
     and each disk's outputs.
 
-    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
+    ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
+    :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
+    last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
+    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap."""
+    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
+    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps, error_sums = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
@@ -152,7 +158,7 @@ def step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuat
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
-        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
+        code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
         info[0, k, i], info[1, k, i] = x[0], x[1]
@@ -176,49 +182,51 @@ def step_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuat
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
         lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
-        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
 
 
 @kernel
-def step_euler(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
-    info, flags):
+def step_euler(actions, batch, setup, out):
     """Steps a batch of one share (see :func:`step_euler_share`); returns the first disk with a non-finite action
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_euler_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-            weights, bounds, observations, info, flags)
+        step_euler_share(np.int64(0), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
-def step_euler_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_euler_threads(actions, batch, setup, out):
     """:func:`step_euler` for a batch of several shares, a share per thread (the share index is cast to the
     type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in prange(lanes.shape[1]):
-            step_euler_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-                weights, bounds, observations, info, flags)
+        for k in prange(batch[0].shape[1]):
+            step_euler_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @kernel
-def step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_symplectic_euler_share(k, actions, batch, setup, out):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in one
     loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
     and each disk's outputs.
 
-    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
+    ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
+    :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
+    last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
+    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap."""
+    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
+    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps, error_sums = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
@@ -255,7 +263,7 @@ def step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, con
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
-        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
+        code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
         info[0, k, i], info[1, k, i] = x[0], x[1]
@@ -279,49 +287,51 @@ def step_symplectic_euler_share(k, actions, lanes, goals, steps, error_sums, con
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
         lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
-        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
 
 
 @kernel
-def step_symplectic_euler(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
-    info, flags):
+def step_symplectic_euler(actions, batch, setup, out):
     """Steps a batch of one share (see :func:`step_symplectic_euler_share`); returns the first disk with a non-finite action
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_symplectic_euler_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-            weights, bounds, observations, info, flags)
+        step_symplectic_euler_share(np.int64(0), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
-def step_symplectic_euler_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_symplectic_euler_threads(actions, batch, setup, out):
     """:func:`step_symplectic_euler` for a batch of several shares, a share per thread (the share index is cast to the
     type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in prange(lanes.shape[1]):
-            step_symplectic_euler_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-                weights, bounds, observations, info, flags)
+        for k in prange(batch[0].shape[1]):
+            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @kernel
-def step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_rk4_share(k, actions, batch, setup, out):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in one
     loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
     and each disk's outputs.
 
-    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
+    ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
+    :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
+    last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
+    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap."""
+    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
+    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps, error_sums = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
@@ -358,7 +368,7 @@ def step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuator
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
-        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
+        code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
         info[0, k, i], info[1, k, i] = x[0], x[1]
@@ -382,51 +392,54 @@ def step_rk4_share(k, actions, lanes, goals, steps, error_sums, config, actuator
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
         lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
-        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
 
 
 @kernel
-def step_rk4(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
-    info, flags):
+def step_rk4(actions, batch, setup, out):
     """Steps a batch of one share (see :func:`step_rk4_share`); returns the first disk with a non-finite action
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_rk4_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-            weights, bounds, observations, info, flags)
+        step_rk4_share(np.int64(0), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
-def step_rk4_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_rk4_threads(actions, batch, setup, out):
     """:func:`step_rk4` for a batch of several shares, a share per thread (the share index is cast to the
     type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in prange(lanes.shape[1]):
-            step_rk4_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-                weights, bounds, observations, info, flags)
+        for k in prange(batch[0].shape[1]):
+            step_rk4_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @kernel
-def step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_dopri5_share(k, actions, batch, setup, out):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in one
     loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
     and each disk's outputs.
 
-    The arrays of the batch come split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``,
-    ``[k, i, j]`` for ``observations`` and ``error_sums``); the loop runs over a whole share, padding included
+    ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
+    :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
+    last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
+    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap."""
+    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
+    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps, error_sums = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
+    period, rtol, atol = config[PERIOD], config[RTOL], config[ATOL]
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
@@ -435,7 +448,7 @@ def step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actua
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         new, lanes[STEP_SIZE, k, i], ok = engine.advance_adaptive(
-            x, config[PERIOD], lanes[STEP_SIZE, k, i], tau_spin, tau_steer, m, g, r, config[RTOL], config[ATOL]
+            x, period, lanes[STEP_SIZE, k, i], tau_spin, tau_steer, m, g, r, rtol, atol
         )
         x, code = engine.in_domain(x, new, RUNNING if ok else SUBSTEP_LIMIT)
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
@@ -444,7 +457,7 @@ def step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actua
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
-        code = engine.contact_status(contact[3], contact[4], config[FRICTION]) if code == RUNNING else code
+        code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
         info[0, k, i], info[1, k, i] = x[0], x[1]
@@ -468,32 +481,28 @@ def step_dopri5_share(k, actions, lanes, goals, steps, error_sums, config, actua
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
         lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
-        flags[TRUNCATED, k, i] = 0 < config[MAX_STEPS] <= steps[k, i]
+        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
 
 
 @kernel
-def step_dopri5(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds, observations,
-    info, flags):
+def step_dopri5(actions, batch, setup, out):
     """Steps a batch of one share (see :func:`step_dopri5_share`); returns the first disk with a non-finite action
     (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_dopri5_share(np.int64(0), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-            weights, bounds, observations, info, flags)
+        step_dopri5_share(np.int64(0), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
-def step_dopri5_threads(actions, lanes, goals, steps, error_sums, config, actuators, settings, weights, bounds,
-    observations, info, flags):
+def step_dopri5_threads(actions, batch, setup, out):
     """:func:`step_dopri5` for a batch of several shares, a share per thread (the share index is cast to the
     type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in prange(lanes.shape[1]):
-            step_dopri5_share(np.int64(k), actions, lanes, goals, steps, error_sums, config, actuators, settings,
-                weights, bounds, observations, info, flags)
+        for k in prange(batch[0].shape[1]):
+            step_dopri5_share(np.int64(k), actions, batch, setup, out)
     return bad

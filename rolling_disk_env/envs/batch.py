@@ -19,20 +19,38 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import importlib
 import multiprocessing
 import os
 import platform
+from types import ModuleType
 
 import numba
 import numpy as np
 
 from rolling_disk_env import engine
 from rolling_disk_env.envs.config import EnvConfig
-from rolling_disk_env.tasks.base import TRACK
+from rolling_disk_env.tasks.base import TRACK, Task
 
 THREADS_FROM = 2048
 """Batches of this many disks or more step on several threads (``benchmarks/bench_env.py`` measures the threaded
 step against the serial one around it)."""
+
+
+def task_steps(task: Task) -> ModuleType:
+    """The generated steps of a task (``_generated/<name>.py``), checked against the task module's source.
+
+    Raises:
+        RuntimeError: the task module changed since its steps were generated, or they were never generated.
+    """
+    regenerate = "run `python -m rolling_disk_env.codegen`"
+    try:
+        steps = importlib.import_module(f"rolling_disk_env._generated.{task.name}")
+    except ModuleNotFoundError:
+        raise RuntimeError(f"task {task.name!r} has no generated steps: {regenerate}") from None
+    if steps.TASK_SOURCE != task.source_hash():
+        raise RuntimeError(f"task {task.name!r} changed since its steps were generated: {regenerate}")
+    return steps
 
 
 def thread_count(num_envs: int) -> int:
@@ -144,7 +162,7 @@ class DiskBatch:
 
     def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None):
         task = config.task
-        steps = engine.task_steps(task)
+        steps = task_steps(task)
         self.num_envs = num_envs
         self.threads = thread_count(num_envs)
         self._step = getattr(steps, f"step_{config.integrator}" + ("_threads" if self.threads > 1 else ""))
@@ -170,16 +188,20 @@ class DiskBatch:
         self.error_sums = np.zeros((width, (max_episode_steps or 1024) + 2 if tracked else 1))
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, 8), np.nan)
-        # Settings.
-        self.config = config.engine_config(max_episode_steps)
-        self.actuators = config.actuators_array
-        self.disk_ranges = config.disk_ranges
-        self.ranges = config.ranges
-        self.settings = task.settings
-        self.weights = task.weights
-        self.bounds = task.observation_high
+        self.setup = tuple(
+            engine.SetupArrays(
+                config=config.engine_config(max_episode_steps),
+                actuators=config.actuators_array,
+                settings=task.settings,
+                weights=task.weights,
+                bounds=task.observation_high,
+                disk_ranges=config.disk_ranges,
+                ranges=config.ranges,
+            )
+        )
+        """The settings, as the kernels take them (:class:`~rolling_disk_env.engine.SetupArrays`, a plain tuple)."""
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
-        self._state_shares = self._split_state()
+        self._bundle()
 
     @property
     def states(self) -> np.ndarray:
@@ -197,16 +219,19 @@ class DiskBatch:
 
     def __getstate__(self) -> dict:
         """Pickles the arrays, not the views of them the step takes (which would pickle as copies)."""
-        return {key: value for key, value in self.__dict__.items() if key != "_state_shares"}
+        return {key: value for key, value in self.__dict__.items() if key not in ("_whole", "_shares")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
-        self._state_shares = self._split_state()
+        self._bundle()
 
-    def _split_state(self) -> tuple[np.ndarray, ...]:
-        """The lanes, goals, step counts and error sums, as the step takes them: split into the shares (views)."""
+    def _bundle(self) -> None:
+        """The lanes, goals, step counts and error sums as the kernels take them
+        (:class:`~rolling_disk_env.engine.BatchArrays`, plain tuples): whole for the reset, and split into the
+        shares (views) for the step."""
+        self._whole = (self.lanes, self.goals, self.steps, self.error_sums)
         split = (self.threads, self.share)
-        return (
+        self._shares = (
             self.lanes.reshape(-1, *split),
             self.goals.reshape(-1, *split),
             self.steps.reshape(split),
@@ -225,22 +250,9 @@ class DiskBatch:
                 the uniforms already in :attr:`uniforms`.
             states: (N, 8) initial states that replace the drawn ones (rows of NaN: none), or None.
         """
-        self._reset(
-            mask,
-            self._no_rngs if rngs is None else rngs,
-            self.uniforms,
-            self.no_state if states is None else states,
-            self.lanes,
-            self.goals,
-            self.steps,
-            self.error_sums,
-            self.config,
-            self.disk_ranges,
-            self.ranges,
-            self.settings,
-            self.bounds,
-            *out.blocks,
-        )
+        rngs = self._no_rngs if rngs is None else rngs
+        states = self.no_state if states is None else states
+        self._reset(mask, rngs, self.uniforms, states, self._whole, self.setup, out.blocks)
 
     def step(self, actions: np.ndarray, out: Outputs) -> int:
         """Steps every disk under normalized ``actions`` (N, A), writing the outputs into ``out``.
@@ -250,15 +262,5 @@ class DiskBatch:
         """
         if self._growing and self.steps[: self.num_envs].max() + 1 >= self.error_sums.shape[1]:
             self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
-            self._state_shares = self._split_state()
-        arguments = (
-            actions,
-            *self._state_shares,
-            self.config,
-            self.actuators,
-            self.settings,
-            self.weights,
-            self.bounds,
-            *out.shares,
-        )
-        return self._step(*arguments)
+            self._bundle()
+        return self._step(actions, self._shares, self.setup, out.shares)

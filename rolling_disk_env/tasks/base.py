@@ -12,34 +12,40 @@ episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :at
 * ``reward_terms(x, effort, goal, settings)``: each named term, in [-1, 1], in the order of
   :attr:`Task.default_reward_weights`; ``effort`` is the mean squared normalized action, in [0, 1]; the engine
   weights and sums them;
-* ``termination(x, goal, settings)``: :data:`RUNNING`, :data:`FALLEN` or :data:`REACHED`;
+* ``termination(x, goal, settings)``: the engine's code :data:`~rolling_disk_env.engine.RUNNING`,
+  :data:`~rolling_disk_env.engine.FALLEN` or :data:`~rolling_disk_env.engine.REACHED`;
 * ``tracking_error(x, goal, settings)``: the error whose mean decides success (only for the success rule
   :data:`TRACK`).
 
+The kernels the step calls (all but ``start``) are declared with :data:`rolling_disk_env.jit.inline_kernel`, so
+that numba writes them into the step's loop: a call left in the loop keeps it from vectorizing.
+
 Each module names the positions it reads in these tuples with constants (numba folds them), as :data:`THETA` and the
-others do for the state. Use IEEE-exact operations (+, -, *, /, sqrt) and libm's functions (sin, cos, atan, ...)
-only: ``math.hypot``, for one, differs in the last bit between CPython and numba.
+others do for the state. Use IEEE-exact operations (+, -, *, /, sqrt) and
+:func:`rolling_disk_env.trig.sincos` in the kernels the step calls: a call to libm (``math.sin``, ``math.atan2``, ...)
+keeps the step's loop over the disks from vectorizing (``start`` runs in the reset, which is not vectorized, and may
+use libm). ``math.hypot``, for one, differs in the last bit between CPython and numba.
 """
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import math
 from abc import ABC
 from typing import ClassVar
 
 import numpy as np
 
-from rolling_disk_env.dynamics import LEAN_LIMIT, is_number, number_pair
-from rolling_disk_env.jit import kernel
+from rolling_disk_env.constants import LEAN_LIMIT
+from rolling_disk_env.dynamics import is_number, number_pair
+from rolling_disk_env.jit import inline_kernel
 
 C1, C2, PHI, THETA, PSI, DPHI, DTHETA, DPSI = range(8)
 """Positions in a state ``x`` (the paper's order)."""
 MASS, GRAVITY, RADIUS = range(3)
 """Positions in a disk ``(m, g, r)``."""
 
-RUNNING, FALLEN, REACHED = 0, 1, 6
-"""What ``termination`` returns: the episode goes on, the disk has fallen, the goal is reached (the engine's codes,
-:data:`rolling_disk_env.engine.TERMINATIONS`)."""
 SURVIVE, TRACK, REACH = range(3)
 """Success rules: not falling; not falling with a mean tracking error over the last half of the episode within
 ``success_bound``; reaching the goal."""
@@ -48,7 +54,7 @@ RATE_BOUND = 100.0
 """rad/s. Observed rates are clipped to +-RATE_BOUND so that the observation space is bounded."""
 
 
-@kernel
+@inline_kernel
 def penalty(error):
     """The bounded penalty ``-min(error^2, 1)`` of a normalized error (compiled into the tasks' kernels)."""
     return -min(error * error, 1.0)
@@ -81,6 +87,12 @@ class Task(ABC):
     fall_lean: float
     success: ClassVar[int] = SURVIVE
     success_bound: float = math.inf
+
+    @classmethod
+    def source_hash(cls) -> str:
+        """The sha256 of the source of the task's module: its generated steps (``_generated/<name>.py``) record the
+        hash they were generated from, so that steps older than the task are refused."""
+        return hashlib.sha256(inspect.getsource(inspect.getmodule(cls)).encode()).hexdigest()
 
     def __init__(self, reward_weights: dict[str, float] | None = None, fall_lean: float | None = None):
         weights = dict(self.default_reward_weights)

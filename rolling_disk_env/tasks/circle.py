@@ -14,23 +14,9 @@ from typing import ClassVar
 
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import DiskParams, is_number, number_pair, steady_circle
-from rolling_disk_env.jit import kernel
-from rolling_disk_env.tasks.base import (
-    C1,
-    C2,
-    DPHI,
-    DPSI,
-    DTHETA,
-    FALLEN,
-    GRAVITY,
-    PSI,
-    RADIUS,
-    RUNNING,
-    THETA,
-    TRACK,
-    Task,
-    penalty,
-)
+from rolling_disk_env.engine import FALLEN, RUNNING
+from rolling_disk_env.jit import inline_kernel, kernel
+from rolling_disk_env.tasks.base import C1, C2, DPHI, DPSI, DTHETA, GRAVITY, PSI, RADIUS, THETA, TRACK, Task, penalty
 from rolling_disk_env.trig import sincos
 
 # Positions in this task's arrays.
@@ -166,14 +152,14 @@ def start(drawn, disk, settings):
     return goal, x
 
 
-@kernel
+@inline_kernel
 def radial_error(x, goal):
     """|c - centre| - R (m)."""
     dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
     return math.sqrt(dx * dx + dy * dy) - goal[CIRCLE_RADIUS]
 
 
-@kernel
+@inline_kernel
 def observe(x, goal, settings):
     dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
     distance = math.sqrt(dx * dx + dy * dy)
@@ -192,7 +178,7 @@ def observe(x, goal, settings):
     )
 
 
-@kernel
+@inline_kernel
 def reward_terms(x, effort, goal, settings):
     alive = 1.0
     radial = penalty(radial_error(x, goal))
@@ -200,11 +186,11 @@ def reward_terms(x, effort, goal, settings):
     return (alive, radial, speed, -effort)
 
 
-@kernel
+@inline_kernel
 def termination(x, goal, settings):
     return FALLEN if abs(x[THETA]) > settings[FALL_LEAN] else RUNNING
 
 
-@kernel
+@inline_kernel
 def tracking_error(x, goal, settings):
     return abs(radial_error(x, goal))

@@ -18,24 +18,10 @@ import math
 from typing import ClassVar
 
 from rolling_disk_env.dynamics import is_number, number_pair
-from rolling_disk_env.jit import kernel
-from rolling_disk_env.tasks.base import (
-    C1,
-    C2,
-    DPHI,
-    DPSI,
-    DTHETA,
-    FALLEN,
-    GRAVITY,
-    PSI,
-    RADIUS,
-    REACH,
-    REACHED,
-    RUNNING,
-    THETA,
-    Task,
-    penalty,
-)
+from rolling_disk_env.engine import FALLEN, REACHED, RUNNING
+from rolling_disk_env.jit import inline_kernel, kernel
+from rolling_disk_env.tasks.base import C1, C2, DPHI, DPSI, DTHETA, GRAVITY, PSI, RADIUS, REACH, THETA, Task, penalty
+from rolling_disk_env.trig import sincos
 
 # Positions in this task's arrays.
 CRUISE_SPEED, FALL_LEAN, REACH_RADIUS = range(3)  # settings
@@ -189,25 +175,25 @@ def start(drawn, disk, settings):
     return goal, x
 
 
-@kernel
+@inline_kernel
 def target(x, goal):
     """``(d, sin beta, cos beta)``: the centre's horizontal distance to the target (m) and the sine and cosine of
     the target's bearing from the rolling direction (both 0 at the target)."""
     dx, dy = goal[TARGET_X] - x[C1], goal[TARGET_Y] - x[C2]
     distance = math.sqrt(dx * dx + dy * dy)
-    sin_psi, cos_psi = math.sin(x[PSI]), math.cos(x[PSI])
+    sin_psi, cos_psi = sincos(x[PSI])
     scale = 1.0 / (distance + 1e-9)
     # Rolling direction f = (sin psi, -cos psi): cos beta = f . u, sin beta = f x u, u the unit vector to the target.
     return distance, (sin_psi * dy + cos_psi * dx) * scale, (sin_psi * dx - cos_psi * dy) * scale
 
 
-@kernel
+@inline_kernel
 def lifted_off(x, goal):
     """Whether the ground's normal force on the disk vanishes, ``N = m (g + c3'') <= 0``: the contact the model
     assumes ends (the engine then ends the episode, ``"lifted_off"``). The centre's height is ``r cos(theta)`` and
     ``ddtheta`` has no input term, so N does not depend on the torques."""
     r, theta = goal[DISK_RADIUS], x[THETA]
-    sin_theta, cos_theta = math.sin(theta), math.cos(theta)
+    sin_theta, cos_theta = sincos(theta)
     dpsi = x[DPSI]
     # The model's lean equation (thin uniform disk, no input term).
     ddtheta = (
@@ -218,30 +204,32 @@ def lifted_off(x, goal):
     return not goal[DISK_GRAVITY] - r * (cos_theta * x[DTHETA] * x[DTHETA] + sin_theta * ddtheta) > 0.0
 
 
-@kernel
+@inline_kernel
 def observe(x, goal, settings):
     distance, sin_bearing, cos_bearing = target(x, goal)
     return (distance, sin_bearing, cos_bearing, x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])
 
 
-@kernel
+@inline_kernel
 def reward_terms(x, effort, goal, settings):
     distance, sin_bearing, cos_bearing = target(x, goal)
     theta = x[THETA]
-    forward = x[DPHI] - x[DPSI] * math.sin(theta)
-    approach = goal[DISK_RADIUS] * (forward * cos_bearing + math.cos(theta) * x[DTHETA] * sin_bearing)
+    sin_theta, cos_theta = sincos(theta)
+    forward = x[DPHI] - x[DPSI] * sin_theta
+    approach = goal[DISK_RADIUS] * (forward * cos_bearing + cos_theta * x[DTHETA] * sin_bearing)
     progress = min(max(approach / settings[CRUISE_SPEED], -1.0), 1.0)
     # The miss distance if the disk rolled straight on: d |sin beta| ahead, d behind.
     miss = distance * abs(sin_bearing) if cos_bearing > 0.0 else distance
     aim = penalty(miss / AIM_SCALE)
     speed = penalty((x[DPHI] - goal[TARGET_DPHI]) / goal[TARGET_DPHI])
     upright = penalty(theta / settings[FALL_LEAN])
-    fallen = abs(theta) > settings[FALL_LEAN] or lifted_off(x, goal)
-    reached = 1.0 if distance <= settings[REACH_RADIUS] and not fallen else 0.0
+    # | and & rather than "or" and "and": both sides are evaluated, so no branch keeps the step's loop scalar.
+    fallen = (abs(theta) > settings[FALL_LEAN]) | lifted_off(x, goal)
+    reached = 1.0 if (distance <= settings[REACH_RADIUS]) & (not fallen) else 0.0
     return (progress, aim, speed, upright, -effort, reached, -1.0 if fallen else 0.0)
 
 
-@kernel
+@inline_kernel
 def termination(x, goal, settings):
     if abs(x[THETA]) > settings[FALL_LEAN]:
         return FALLEN

@@ -13,8 +13,9 @@ import math
 from typing import ClassVar
 
 from rolling_disk_env.dynamics import is_number
-from rolling_disk_env.jit import kernel
-from rolling_disk_env.tasks.base import DPHI, DPSI, DTHETA, FALLEN, RADIUS, RUNNING, THETA, Task, penalty
+from rolling_disk_env.engine import FALLEN, RUNNING
+from rolling_disk_env.jit import inline_kernel, kernel
+from rolling_disk_env.tasks.base import DPHI, DPSI, DTHETA, RADIUS, THETA, Task, penalty
 
 # Positions in this task's arrays.
 TARGET_SPEED, FALL_LEAN = range(2)  # settings
@@ -88,12 +89,12 @@ def start(drawn, disk, settings):
     return goal, x
 
 
-@kernel
+@inline_kernel
 def observe(x, goal, settings):
     return (x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])
 
 
-@kernel
+@inline_kernel
 def reward_terms(x, effort, goal, settings):
     alive = 1.0
     lean = penalty(x[THETA] / settings[FALL_LEAN])
@@ -101,6 +102,6 @@ def reward_terms(x, effort, goal, settings):
     return (alive, lean, speed, -effort)
 
 
-@kernel
+@inline_kernel
 def termination(x, goal, settings):
     return FALLEN if abs(x[THETA]) > settings[FALL_LEAN] else RUNNING

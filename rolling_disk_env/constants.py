@@ -1,0 +1,17 @@
+"""Constants that every layer of the package shares: the model's domain and the compiled engine's integrators.
+
+This module imports nothing, so that the modules imported with the package (:mod:`rolling_disk_env.dynamics`,
+:mod:`rolling_disk_env.integrators`, which must not load numba) and the compiled engine below them
+(:mod:`rolling_disk_env.engine`) read the same values without importing each other.
+"""
+
+import math
+
+LEAN_MARGIN = 0.01
+"""rad. How far from the flat disk (|theta| = pi/2) the model's domain stops: there 1/cos(theta) = 100."""
+LEAN_LIMIT = math.pi / 2 - LEAN_MARGIN
+"""rad. The model's domain is |theta| < LEAN_LIMIT."""
+
+ENGINE_METHODS = ("euler", "symplectic_euler", "rk4", "dopri5")
+"""The methods the compiled engine integrates (their index is the engine's code for them): fixed steps, then the
+error-controlled Dormand-Prince 5(4)."""
