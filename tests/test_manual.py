@@ -75,3 +75,14 @@ def test_every_benchmark_result_is_a_page():
     missing = [name for name in results if f"results/{name}" not in nav]
     assert not missing, f"benchmark results missing from mkdocs.yml's nav: {missing}"
     assert (DOCS / "results").resolve() == (ROOT / "benchmarks" / "results").resolve()
+
+
+def test_readme_is_a_front_door():
+    """The README stays short (the manual holds the rest), and every file it links or shows exists."""
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) <= 200
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", readme)
+    local = [target for target in targets if "://" not in target]
+    assert local
+    missing = [target for target in local if not (ROOT / target).exists()]
+    assert not missing, f"README.md links to files that do not exist: {missing}"
