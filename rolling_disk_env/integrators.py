@@ -33,6 +33,7 @@ from rolling_disk_env.dynamics import (
 )
 
 METHODS = (*ENGINE_METHODS, "dop853")
+"""The ``method`` names :func:`simulate` takes: the engine's, then scipy's ``"dop853"`` (the accuracy reference)."""
 EVALUATIONS_PER_STEP = {"euler": 1, "symplectic_euler": 2, "rk4": 4}
 """Derivative evaluations per step of the fixed-step methods (the cost unit of the benchmarks)."""
 

@@ -1,0 +1,88 @@
+"""The manual (mkdocs.yml, docs/) covers what it promises: the public API and every benchmark result.
+
+The strict build itself (``mkdocs build --strict``: links, pages, docstrings that render) runs in .ci/run, in a venv
+of the docs extra; these checks need only the package.
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import re
+from pathlib import Path
+
+import pytest
+
+import rolling_disk_env
+from rolling_disk_env import dynamics, integrators
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+API_MODULES = (rolling_disk_env, dynamics, integrators)
+"""The modules whose top level defines the package's public names."""
+DIRECTIVE = re.compile(r"^::: ([\w.]+)$", re.MULTILINE)
+"""A mkdocstrings directive: the object it renders."""
+
+
+def rendered_objects() -> set[str]:
+    """The paths that the manual's pages render with ``::: path``."""
+    return {match for page in DOCS.rglob("*.md") for match in DIRECTIVE.findall(page.read_text())}
+
+
+def attribute_docstrings(module) -> dict[str, str]:
+    """The docstrings written under a module's constants (``NAME = value`` then a string), by name."""
+    tree = ast.parse(inspect.getsource(module))
+    docstrings = {}
+    for statement, following in zip(tree.body, tree.body[1:]):
+        if (
+            isinstance(statement, (ast.Assign, ast.AnnAssign))
+            and isinstance(following, ast.Expr)
+            and isinstance(following.value, ast.Constant)
+            and isinstance(following.value.value, str)
+        ):
+            targets = statement.targets if isinstance(statement, ast.Assign) else [statement.target]
+            docstrings.update({target.id: following.value.value for target in targets if isinstance(target, ast.Name)})
+    return docstrings
+
+
+@pytest.mark.parametrize("name", rolling_disk_env.__all__)
+def test_every_public_name_has_a_docstring(name):
+    """The API reference is generated from the docstrings: a public name without one would be missing from it."""
+    obj = getattr(rolling_disk_env, name)
+    if inspect.isclass(obj) or inspect.isfunction(obj):
+        assert inspect.getdoc(obj), f"rolling_disk_env.{name} has no docstring"
+    else:
+        docstrings = [attribute_docstrings(module).get(name) for module in API_MODULES]
+        assert any(docstrings), f"rolling_disk_env.{name} has no docstring under its assignment"
+
+
+@pytest.mark.parametrize("name", rolling_disk_env.__all__)
+def test_every_public_name_is_in_the_api_reference(name):
+    """``::: rolling_disk_env`` renders the names the package's ``__init__`` binds; the envs, which it provides
+    lazily, need their own directive."""
+    rendered = rendered_objects()
+    assert "rolling_disk_env" in rendered
+    source = inspect.getsource(rolling_disk_env)
+    bound = re.search(rf"^\s+{name},$|^{name}\b.*=|import .*\b{name}\b", source, re.M)
+    assert bound or any(path.endswith(f".{name}") for path in rendered), f"no page renders rolling_disk_env.{name}"
+
+
+def test_every_benchmark_result_is_a_page():
+    """Performance shows every benchmark's tables and charts: each result file is a page of the site's nav."""
+    nav = (ROOT / "mkdocs.yml").read_text()
+    results = sorted(path.name for path in (ROOT / "benchmarks" / "results").glob("*.md"))
+    assert results
+    missing = [name for name in results if f"results/{name}" not in nav]
+    assert not missing, f"benchmark results missing from mkdocs.yml's nav: {missing}"
+    assert (DOCS / "results").resolve() == (ROOT / "benchmarks" / "results").resolve()
+
+
+def test_readme_is_a_front_door():
+    """The README stays short (the manual holds the rest), and every file it links or shows exists."""
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) <= 200
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", readme)
+    local = [target for target in targets if "://" not in target]
+    assert local
+    missing = [target for target in local if not (ROOT / target).exists()]
+    assert not missing, f"README.md links to files that do not exist: {missing}"
