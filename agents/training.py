@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 import yaml
-from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import VecNormalize
 from torch import nn
@@ -42,9 +42,9 @@ ZOO_KEYS = frozenset({"n_timesteps", "n_envs", "normalize", "env_kwargs", "polic
 SCHEDULES = ("learning_rate", "clip_range", "clip_range_vf")
 """The arguments that may be a linear schedule ``lin_<initial value>``."""
 EVAL_EVERY = 10_000
-"""Environment steps between two periodic evaluations (EvalCallback) during training."""
+"""Environment steps between two periodic evaluations (:class:`PeriodicEvaluation`) during training."""
 EVAL_DURING_TRAINING = 10
-"""Episodes of each periodic evaluation."""
+"""Episodes of each periodic evaluation (run at once on the native vector env)."""
 
 
 class ConfigError(ValueError):
@@ -204,19 +204,56 @@ def _positive_int(name: str, value) -> int:
     return int(value)
 
 
-class _AfterEvaluation(BaseCallback):
-    """EvalCallback's ``callback_after_eval``: hands ``(num_timesteps, mean return, success rate)`` of each
-    periodic evaluation to the listeners (the success rate is NaN if the env reports none)."""
+class PeriodicEvaluation(BaseCallback):
+    """Evaluates the policy every ``every`` environment steps, as SB3's ``EvalCallback`` does, but on the native
+    vector env with all episodes at once (:func:`agents.evaluate.evaluate`: one policy call per step for all of
+    them, instead of one per episode and step): the same seeded episodes each time, deterministic actions, with the
+    training's observation normalization. Keeps the best model (``best_model.zip``), the evaluations
+    (``eval/evaluations.npz``: ``timesteps``, ``results`` (returns), ``successes``, as EvalCallback writes them),
+    logs ``eval/mean_reward`` and ``eval/success_rate``, and hands ``(num_timesteps, mean return, success rate)`` to
+    the listeners.
+    """
 
-    def __init__(self, listeners: list[Callable[[int, float, float], None]]):
+    def __init__(
+        self,
+        out: Path,
+        every: int,
+        episodes: int,
+        seed: int,
+        env_kwargs: dict,
+        listeners: list[Callable[[int, float, float], None]],
+    ):
         super().__init__()
-        self.listeners = listeners
+        self.out, self.every, self.episodes, self.seed = out, every, episodes, seed
+        self.env_kwargs, self.listeners = env_kwargs, listeners
+        self.next = every
+        self.best = -math.inf
+        self.history: dict[str, list] = {"timesteps": [], "results": [], "successes": []}
 
     def _on_step(self) -> bool:
-        successes = self.parent.evaluations_successes
-        success_rate = float(np.mean(successes[-1])) if successes else math.nan
+        if self.num_timesteps < self.next:
+            return True
+        self.next += self.every
+        normalize = self.training_env if isinstance(self.training_env, VecNormalize) else None
+        result = evaluate(
+            NormalizedPolicy(self.model, normalize), "periodic", self.episodes, seed=self.seed, **self.env_kwargs
+        )
+        mean_return, success_rate = float(result.returns.mean()), float(result.successes.mean())
+        for key, value in (
+            ("timesteps", self.num_timesteps),
+            ("results", result.returns),
+            ("successes", result.successes),
+        ):
+            self.history[key].append(value)
+        (self.out / "eval").mkdir(exist_ok=True)
+        np.savez(self.out / "eval" / "evaluations.npz", **{key: np.array(value) for key, value in self.history.items()})
+        self.logger.record("eval/mean_reward", mean_return)
+        self.logger.record("eval/success_rate", success_rate)
+        if mean_return > self.best:
+            self.best = mean_return
+            self.model.save(self.out / "best_model")
         for listener in self.listeners:
-            listener(self.num_timesteps, float(self.parent.last_mean_reward), success_rate)
+            listener(self.num_timesteps, mean_return, success_rate)
         return True
 
 
@@ -266,8 +303,9 @@ def train(
     """Trains ``algo`` on ``task`` with one zoo block of hyperparameters, then evaluates it against the baselines.
 
     The run directory ``out`` receives ``config.yml`` (the block as used, keyed by the task's id), ``command.txt``,
-    ``algo.txt``, TensorBoard logs in ``tb/``, ``best_model.zip`` and ``eval/evaluations.npz`` (EvalCallback:
-    every 10,000 steps, 10 episodes), ``model.zip``, ``vecnormalize.pkl`` (with ``normalize``) and ``results.md``.
+    ``algo.txt``, TensorBoard logs in ``tb/``, ``best_model.zip`` and ``eval/evaluations.npz``
+    (:class:`PeriodicEvaluation`: every 10,000 steps, 10 episodes), ``model.zip``, ``vecnormalize.pkl`` (with
+    ``normalize``) and ``results.md``.
     Ctrl-C (KeyboardInterrupt) during training stops it; the model trained so far is saved and evaluated.
 
     Args:
@@ -279,7 +317,7 @@ def train(
         n_envs: training environments, stepped together by the compiled engine
             (:func:`rolling_disk_env.sb3.make_vec_env`: the transitions of ``DummyVecEnv`` over single envs, in less
             time: ``benchmarks/bench_training.py``); default the block's ``n_envs`` or 1.
-        seed: seeds the model and the training envs (the periodic evaluation's env gets ``seed + 1000``).
+        seed: seeds the model and the training envs (the periodic evaluations' episodes: from ``seed + 1000``).
         eval_episodes: seeded episodes (seeds from ``agents.evaluate.EVAL_SEED``) of the final evaluation.
         threads: torch CPU threads (1 was fastest on 2 cores: ``benchmarks/bench_training.py``).
         verbose: SB3's verbosity, 0, 1 (training logs, evaluations) or 2 (debug).
@@ -317,10 +355,8 @@ def train(
     (out / "algo.txt").write_text(algo + "\n")
 
     env = native_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs)
-    eval_env = native_vec_env(env_id, n_envs=1, seed=seed + 1000, env_kwargs=env_kwargs)
     if normalization is not None:
         env = VecNormalize(env, **normalization)
-        eval_env = VecNormalize(eval_env, **{**normalization, "training": False, "norm_reward": False})
     model = ALGORITHMS[algo](
         hyperparams.get("policy", "MlpPolicy"),
         env,
@@ -332,19 +368,9 @@ def train(
     )
     bar = _ProgressBar() if progress_bar else None
     listeners = ([bar.show] if bar is not None else []) + ([on_evaluation] if on_evaluation is not None else [])
-    callbacks = [
-        EvalCallback(
-            eval_env,
-            callback_after_eval=_AfterEvaluation(listeners),
-            best_model_save_path=str(out),
-            log_path=str(out / "eval"),
-            eval_freq=max(1, EVAL_EVERY // n_envs),
-            n_eval_episodes=EVAL_DURING_TRAINING,
-            deterministic=True,
-            verbose=verbose,
-        ),
-        *([bar] if bar is not None else []),
-    ]
+    evaluated = {"task": task, **env_kwargs}
+    periodic = PeriodicEvaluation(out, EVAL_EVERY, EVAL_DURING_TRAINING, seed + 1000, evaluated, listeners)
+    callbacks = [periodic, *([bar] if bar is not None else [])]
     start = time.perf_counter()
     interrupted = False
     try:
@@ -359,7 +385,6 @@ def train(
     if normalization is not None:
         env.save(str(out / "vecnormalize.pkl"))
 
-    evaluated = {"task": task, **env_kwargs}
     results = [
         evaluate(
             NormalizedPolicy(model, env if normalization is not None else None),

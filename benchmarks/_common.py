@@ -59,16 +59,52 @@ def medians_in_turns(runs: dict[str, Callable[[], float]], repeats: int) -> dict
     return {name: statistics.median(values) for name, values in samples.items()}
 
 
+def cpu_flags() -> set[str]:
+    """The CPU's feature flags as Linux lists them (``/proc/cpuinfo``; empty elsewhere)."""
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return set()
+    return next((set(line.split(":", 1)[1].split()) for line in text.splitlines() if line.startswith("flags")), set())
+
+
+def vector_extension(features: set[str]) -> str:
+    """The widest x86 vector extension among CPU ``features`` (``/proc/cpuinfo`` flags or LLVM's ``+avx2`` names):
+    AVX-512 (8 doubles a vector), AVX2 (4) or SSE2 (2, the x86-64 baseline and the width of ARM's NEON)."""
+    names = {feature.lstrip("+") for feature in features}
+    return "AVX-512" if "avx512f" in names else "AVX2" if "avx2" in names else "SSE2"
+
+
+def cpu() -> str:
+    """The CPU (model, and its widest vector extension) and the code numba generates for it: for the host, or for
+    the target that ``NUMBA_CPU_NAME`` and ``NUMBA_CPU_FEATURES`` name (how AVX2 code is measured on an AVX-512
+    host)."""
+    model = platform.processor() or platform.machine()
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+        model = next(line.split(":", 1)[1].strip() for line in text.splitlines() if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    host = vector_extension(cpu_flags())
+    target = os.environ.get("NUMBA_CPU_NAME")
+    if target and target != "host":
+        features = set(os.environ.get("NUMBA_CPU_FEATURES", "").split(","))
+        code = f"numba compiled for `{target}` ({vector_extension(features)})"
+    else:
+        code = f"numba compiled for the host ({host})"
+    return f"{model}, {host}{'' if host == 'AVX-512' else ', no AVX-512'}; {code}"
+
+
 def machine() -> str:
-    """A markdown line naming the machine, the versions that matter to the numbers, and :data:`START_LOAD`."""
+    """A markdown line naming the CPU (:func:`cpu`), the versions that matter to the numbers, and
+    :data:`START_LOAD`."""
     versions = ", ".join(
         f"{name} {metadata.version(name)}"
         for name in ("numpy", "numba", "scipy", "gymnasium", "stable-baselines3", "torch")
         if _installed(name)
     )
-    cpu = platform.processor() or platform.machine()
     return (
-        f"Machine: {cpu}, {os.cpu_count()} cores, Python {sys.version.split()[0]}, {versions}; "
+        f"Machine: {cpu()}; {os.cpu_count()} cores, Python {sys.version.split()[0]}, {versions}; "
         f"load average {START_LOAD:.1f} at the start; {time.strftime('%Y-%m-%d')}."
     )
 
