@@ -351,16 +351,22 @@ def simulate_contact(
     :class:`OutOfDomainError` where the slip is zero and friction could hold it: that disk would roll, which the
     ``"coulomb"`` contact models. With mu = 0 (the frozen lake) the contact force is zero throughout.
 
-    ``"coulomb"``: the hybrid of Coulomb's law, one mode at a time, as in the event-driven schemes of Le Saux, Leine
-    and Glocker (2005, section 3) and Antali and Stepan (2019): the disk *rolls* (the rolling model, the centre's
-    velocity from the constraint) while the friction it needs is within mu, ``|lambda| <= mu N``; it *slips* where
-    ``|lambda|`` reaches ``mu N`` (an event located on ``mu N - |lambda| = 0``), starting with zero slip and the
-    friction force ``mu N lambda / |lambda|``, along the force the contact needed (at that instant the sliding and the
-    rolling accelerations agree); it *slides* with kinetic friction; and where the slip speed reaches zero (an event
-    located on ``v . v0 = 0``, ``v0`` the slip at the start of the integration step, the friction of the approach
-    continued through the stop so that the step stays smooth), it *sticks* and rolls again if ``|lambda| <= mu N``
-    there, or slides on (``"reslip"``). The state is projected onto the rolling constraint at a stick (removing a slip
-    within the integrator's error).
+    ``"coulomb"``: Coulomb's set-valued law (a contact force within ``mu N`` while the slip is zero, ``-mu N v / |v|``
+    otherwise) as Le Saux, Leine and Glocker (2005, *Dynamics of a rolling disk in the presence of dry friction*,
+    J. Nonlinear Sci. 15) state it for this disk. They integrate it with a time-stepping scheme; here it is
+    event-driven, one mode at a time (on the slip's direction at its onset see also Antali and Stepan, 2019,
+    *Nonsmooth analysis of three-dimensional slipping and rolling in the presence of dry friction*, Nonlinear Dyn.
+    97):
+
+    * the disk *rolls* (the rolling model, the centre's velocity from the constraint) while the friction it needs is
+      within mu, ``|lambda| <= mu N``;
+    * it *slips* where ``|lambda|`` reaches ``mu N`` (an event located on ``mu N - |lambda| = 0``), starting with
+      zero slip and the friction force ``mu N lambda / |lambda|``, along the force the contact needed (at that
+      instant the sliding and the rolling accelerations agree), then slides with kinetic friction;
+    * where the slip speed reaches zero (an event located on ``v . v0 = 0``, ``v0`` the slip at the start of the
+      integration step, the friction of the approach continued through the stop so that the step stays smooth) it
+      *sticks* and rolls again if ``|lambda| <= mu N`` there, or slides on (``"reslip"``), starting as at a slip.
+      The state is projected onto the rolling constraint there (removing a slip within the integrator's error).
 
     Torques: ``"rk4"`` samples a callable torque at the start of each output interval and holds it over it;
     ``"dopri5"`` and ``"dop853"`` call it at every evaluation; it receives the 10-state. A batch takes constant
