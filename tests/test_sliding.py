@@ -3,6 +3,12 @@ computations that do not use the model: the rigid body's energy, power and conta
 (tests/reference.py), Newton's law for the centre on finite differences of trajectories, and a spun-up wheel worked
 out by hand."""
 
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -16,6 +22,7 @@ SCENARIO_1 = np.array([2, 0, 0, 0.1, 0, 2.5, 0, 0.0])
 SCENARIO_2 = np.array([2, 0, 0, 0.5, 0, steady_motion(0.5, 1.0), 0, 1.0])
 """The paper's steady circle: its contact needs a friction coefficient of 0.356."""
 ROLLING = list(ROLLING_INDICES)
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _sliding_states(count: int, seed: int = 0) -> np.ndarray:
@@ -285,3 +292,31 @@ def test_bad_arguments_are_named():
     # Kinetic friction only: a sliding disk at zero slip that friction could hold has no force law.
     with pytest.raises(rd.OutOfDomainError, match="contact='coulomb' rolls on"):
         rd.simulate(SCENARIO_1, 1.0, 0.01, contact="sliding", friction_coefficient=0.5)
+
+
+_PROGRAM = """
+import json, numpy as np, rolling_disk_env as rd
+from rolling_disk_env import sliding_engine
+rng = np.random.default_rng(9)
+x = rng.uniform(-2, 2, (20, 10))
+x[:, 3] = rng.uniform(-1.3, 1.3, 20)
+u = rng.uniform(-5, 5, (20, 2))
+out = {"derivative": rd.sliding_derivative(x, u, 0.4).tolist(), "diagnostics": rd.friction_force(x, u, 0.4).tolist()}
+row = np.empty(10)
+disk = np.array([5.0, 9.81, 1.0])
+sliding_engine.hybrid_derivative(x[0], u[0], 0.4, np.array([0.1, 0.2]), -x[0, 5:7], 1e-12, disk, row)
+out["hybrid"] = row.tolist()
+print(json.dumps(out))
+"""
+
+
+def test_compiled_sliding_kernels_give_the_interpreted_generated_code_to_the_last_bit():
+    runs = []
+    for disable in ("0", "1"):
+        environment = {**os.environ, "NUMBA_DISABLE_JIT": disable}
+        result = subprocess.run(
+            [sys.executable, "-c", _PROGRAM], capture_output=True, text=True, env=environment, cwd=ROOT, timeout=600
+        )
+        assert result.returncode == 0, result.stderr[-3000:]
+        runs.append(json.loads(result.stdout))
+    assert runs[0] == runs[1]  # JSON keeps every float's exact value
