@@ -12,20 +12,27 @@ from gymnasium.envs.registration import register, registry
 from rolling_disk_env.dynamics import (
     LEAN_LIMIT,
     LEAN_MARGIN,
+    SLIDING_STATE_NAMES,
     DiskParams,
     OutOfDomainError,
     contact_force,
     energy,
+    friction_force,
     lean_derivative,
     lean_jacobians,
     lean_state,
     normal_force,
     required_friction,
+    sliding_derivative,
+    sliding_energy,
+    sliding_normal_force,
+    sliding_state,
+    slip_velocity,
     state_derivative,
     steady_motion,
     steady_motion_eigenvalues,
 )
-from rolling_disk_env.integrators import METHODS, RollingContactError, simulate
+from rolling_disk_env.integrators import CONTACTS, METHODS, RollingContactError, simulate
 
 ENV_ID = "RollingDisk-v0"
 """The general id: task ``"upright"`` by default, every keyword argument accepted (``task=`` included)."""
@@ -69,11 +76,13 @@ def __getattr__(name: str):
 
 
 __all__ = [
+    "CONTACTS",
     "ENV_ID",
     "LEAN_LIMIT",
     "LEAN_MARGIN",
     "MAX_EPISODE_STEPS",
     "METHODS",
+    "SLIDING_STATE_NAMES",
     "TASK_IDS",
     "DiskParams",
     "OutOfDomainError",
@@ -82,12 +91,18 @@ __all__ = [
     "RollingDiskVectorEnv",
     "contact_force",
     "energy",
+    "friction_force",
     "lean_derivative",
     "lean_jacobians",
     "lean_state",
     "normal_force",
     "required_friction",
     "simulate",
+    "sliding_derivative",
+    "sliding_energy",
+    "sliding_normal_force",
+    "sliding_state",
+    "slip_velocity",
     "state_derivative",
     "steady_motion",
     "steady_motion_eigenvalues",

@@ -25,6 +25,13 @@ The result is control-affine: ``ddq = f(q, dq) + B(q) u`` and ``lambda = lambda_
 Also derived: the vertical ground reaction ``N = m (g + c3'')``, ``c3 = r cos(theta)`` being the centre's height (N).
 With the horizontal reaction lambda it says when rolling holds: the contact slips unless ``|lambda| <= mu N`` for
 the friction coefficient mu, and lifts off unless ``N > 0``.
+
+Beyond the paper's rolling disk, :func:`derive_sliding` derives the disk that slides, the paper's "flat frozen lake"
+(section 2.4) with dry friction added: the same Lagrangian (``c3 = r cos(theta)`` still eliminated by the contact),
+no rolling constraint, so the state is ``(q, dq)``, ten numbers; the same torques; and a horizontal force ``F`` at
+the contact, whose generalized force comes by virtual power at the material contact point, whose horizontal
+velocity is ``A(q) dq``. With ``F = N f`` (``f`` the friction per unit normal force) the normal force ``N`` enters the
+equations of motion, so it is solved with the accelerations. Kinetic Coulomb friction is ``f = -mu v / |v|``.
 """
 
 from __future__ import annotations
@@ -47,6 +54,9 @@ dc1, dc2, dphi, dtheta, dpsi = sp.symbols("dc1 dc2 dphi dtheta dpsi")
 ddc1, ddc2, ddphi, ddtheta, ddpsi = sp.symbols("ddc1 ddc2 ddphi ddtheta ddpsi")
 lambda1, lambda2 = sp.symbols("lambda1 lambda2")
 tau_spin, tau_steer = sp.symbols("tau_spin tau_steer")
+normal, f1, f2, v1, v2 = sp.symbols("normal f1 f2 v1 v2")
+mu = sp.Symbol("mu", nonnegative=True)
+slip_speed = sp.Symbol("slip_speed", positive=True)
 
 q = sp.Matrix([c1, c2, phi, theta, psi])
 dq = sp.Matrix([dc1, dc2, dphi, dtheta, dpsi])
@@ -54,6 +64,11 @@ ddq = sp.Matrix([ddc1, ddc2, ddphi, ddtheta, ddpsi])
 multipliers = sp.Matrix([lambda1, lambda2])
 torques = sp.Matrix([tau_spin, tau_steer])
 state = (c1, c2, phi, theta, psi, dphi, dtheta, dpsi)
+friction_ratio = sp.Matrix([f1, f2])
+"""The horizontal contact force on the disk per unit normal force, along world x and y (``|f| <= mu``)."""
+slip = sp.Matrix([v1, v2])
+"""The slip velocity: the horizontal velocity of the disk's material contact point, along world x and y (m/s)."""
+sliding_state = (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi)
 
 
 def to_symbols(expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
@@ -228,4 +243,83 @@ def derive() -> Derivation:
         accelerations_input=solution_input[2:, :],
         normal_force_free=normal_force_free,
         normal_force_input=normal_force_input,
+    )
+
+
+@dataclass(frozen=True)
+class SlidingDerivation:
+    """The disk that slides: the paper's frozen lake (no rolling constraint) with a horizontal contact force.
+
+    State ``(q, dq) = (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi)``. Expressions in the plain symbols of
+    this module; the contact force is ``N f``, ``f = (f1, f2)`` (:data:`friction_ratio`) being a symbol here, so that
+    the one derivation serves kinetic friction, the frozen lake (``f = 0``) and any given contact force.
+
+    Attributes:
+        slip_velocity: ``v = A(q) dq``, the horizontal velocity of the disk's material contact point (m/s), with the
+            rolling model's constraint rows ``A`` (rolling is ``v = 0``).
+        friction_forces: ``Q_F = A^T (N f)``, the generalized force of the contact force, by virtual power:
+            ``Q_F . dq = N f . v``.
+        vertical_law: ``N - m (g + c3'')``, Newton's law for the centre along z (``c3 = r cos(theta)``), zero.
+        mass_matrix: ``M_s(q, f)``, with ``M_s (ddq, N) = b_s`` (6 x 6).
+        rhs: ``b_s(q, dq, u)`` (6 rows).
+        accelerations: ``ddq(q, dq, u, f)`` (5 rows).
+        normal_force: ``N(q, dq, u, f)``, the vertical ground reaction on the disk (N).
+        kinetic_friction: Coulomb's kinetic law ``f = -mu v / |v|`` in the symbols ``v1, v2`` (:data:`slip`),
+            ``mu`` and ``slip_speed`` (``|v| > 0``); undefined at ``v = 0``.
+        energy: kinetic plus potential energy ``E_K + E_p`` with the centre's horizontal velocity free (J).
+    """
+
+    slip_velocity: sp.Matrix
+    friction_forces: sp.Matrix
+    vertical_law: sp.Expr
+    mass_matrix: sp.Matrix
+    rhs: sp.Matrix
+    accelerations: sp.Matrix
+    normal_force: sp.Expr
+    kinetic_friction: sp.Matrix
+    energy: sp.Expr
+
+
+@functools.cache
+def derive_sliding() -> SlidingDerivation:
+    """Derives the sliding disk from the rolling derivation's Lagrangian, constraint rows and torques (half a
+    minute); the result is cached."""
+    rolling = derive()
+
+    # Section 2.3 unchanged: the Lagrangian with c3 = r cos(theta), and its Euler-Lagrange rows Q(q, dq, ddq). The
+    # contact keeps the lowest point of the rim on the plane, and that point's vertical velocity is zero whatever dq:
+    # the normal force does no virtual work, so it does not appear in Q - Q_torque - Q_F = 0.
+    euler_lagrange = rolling.euler_lagrange
+
+    # Section 2.4 read the other way: A(q) dq is the horizontal velocity of the material contact point, the slip.
+    slip_velocity = rolling.constraint_matrix * dq
+
+    # Virtual power of the contact force F = N f at the contact point: F . v = (A^T F) . dq, so Q_F = A^T F (the
+    # rolling model's constraint forces tau = A^T lambda are the same law with lambda in place of F).
+    friction_forces = rolling.constraint_matrix.T * (normal * friction_ratio)
+
+    # Newton's law for the centre along z: m c3'' = N - m g, with c3'' depending on ddtheta.
+    height_acceleration = to_symbols(to_functions(rolling.centre[2]).diff(t, 2))
+    vertical_law = normal - m * (g + height_acceleration)
+
+    # The five Euler-Lagrange rows with the torques and the contact force, and the vertical law: linear in (ddq, N).
+    system = sp.Matrix.vstack(euler_lagrange - rolling.torque_forces - friction_forces, sp.Matrix([vertical_law]))
+    unknowns = sp.Matrix.vstack(ddq, sp.Matrix([normal]))
+    mass_matrix = sp.simplify(system.jacobian(unknowns))
+    rhs = sp.simplify(mass_matrix * unknowns - system)
+    solution = mass_matrix.LUsolve(rhs).applyfunc(sp.simplify)
+
+    # Coulomb's kinetic friction: the contact force opposes the slip, with magnitude mu N.
+    kinetic_friction = -mu * slip / slip_speed
+
+    return SlidingDerivation(
+        slip_velocity=slip_velocity,
+        friction_forces=friction_forces,
+        vertical_law=vertical_law,
+        mass_matrix=mass_matrix,
+        rhs=rhs,
+        accelerations=solution[:5, :],
+        normal_force=solution[5],
+        kinetic_friction=kinetic_friction,
+        energy=rolling.kinetic_energy + rolling.potential_energy,
     )

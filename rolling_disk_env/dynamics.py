@@ -10,7 +10,12 @@ model's domain is ``|theta| < LEAN_LIMIT = pi/2 - LEAN_MARGIN``; a state outside
 The reduced *lean* model keeps ``y = (theta, dphi, dtheta, dpsi)``: ``c1, c2, phi, psi`` are ignorable (no equation
 depends on them but the centre's velocity, which depends on ``psi``), so ``y`` evolves on its own.
 
-The functions run on the compiled engine (:mod:`rolling_disk_env.engine`), imported on first call.
+The *sliding* model (the paper's frozen lake, with dry friction: :func:`rolling_disk_env.derivation.derive_sliding`)
+has no rolling constraint: its state is ``(q, dq)``, ten numbers, :data:`SLIDING_STATE_NAMES`, the centre's
+horizontal velocity ``(dc1, dc2)`` (m/s) among them. Its functions take one 10-state or a batch (N, 10).
+
+The functions run on the compiled engine (:mod:`rolling_disk_env.engine`, and :mod:`rolling_disk_env.sliding_engine`
+for the sliding model), imported on first call.
 """
 
 from __future__ import annotations
@@ -26,6 +31,10 @@ STATE_NAMES = ("c1", "c2", "phi", "theta", "psi", "dphi", "dtheta", "dpsi")
 LEAN_NAMES = ("theta", "dphi", "dtheta", "dpsi")
 LEAN_INDICES = (3, 5, 6, 7)
 """Where the lean state's components sit in the full state."""
+SLIDING_STATE_NAMES = ("c1", "c2", "phi", "theta", "psi", "dc1", "dc2", "dphi", "dtheta", "dpsi")
+"""The sliding model's state, the paper's ``(q, dq)``."""
+ROLLING_INDICES = (0, 1, 2, 3, 4, 7, 8, 9)
+"""Where the full (rolling) state's components sit in a sliding state."""
 
 
 class OutOfDomainError(ValueError):
@@ -135,6 +144,8 @@ class Model:
 FULL_MODEL = Model("full", STATE_NAMES, lean_index=3)
 LEAN_MODEL = Model("lean", LEAN_NAMES, lean_index=0)
 MODELS = {model.name: model for model in (FULL_MODEL, LEAN_MODEL)}
+"""The rolling models, by the name ``simulate``'s ``model`` argument takes."""
+SLIDING_MODEL = Model("sliding", SLIDING_STATE_NAMES, lean_index=3)
 
 
 def check_states(state, model: Model = FULL_MODEL, name: str = "state") -> np.ndarray:
@@ -262,6 +273,96 @@ def required_friction(state, torque=None, params: DiskParams | None = None) -> f
     mu slips where this exceeds mu."""
     value = _diagnostics(state, torque, params)[..., 4]
     return float(value) if np.ndim(value) == 0 else value
+
+
+def check_friction_coefficient(value) -> float:
+    """``value`` as a float if it is a finite number >= 0 (not a bool); else ``ValueError``."""
+    if not (is_number(value) and math.isfinite(value) and value >= 0):
+        raise ValueError(f"friction_coefficient must be a finite number >= 0, got {value!r}")
+    return float(value)
+
+
+def _sliding_rows(state, torque, friction_coefficient, params: DiskParams | None):
+    """The checked arguments of the sliding model's loops: rows of 10-states, torques, coefficients and disks."""
+    x = check_states(state, SLIDING_MODEL, "x")
+    torques = check_torques(torque, None if x.ndim == 1 else x.shape[0])
+    rows = np.ascontiguousarray(x.reshape(-1, SLIDING_MODEL.size))
+    frictions = np.full(rows.shape[0], check_friction_coefficient(friction_coefficient))
+    return x.shape, rows, torques, frictions, disk_rows(params, rows.shape[0])
+
+
+def sliding_derivative(x, torque=(0.0, 0.0), friction_coefficient: float = 0.0, params: DiskParams | None = None):
+    """dx/dt of the sliding model: the paper's frozen lake, with kinetic Coulomb friction at the contact.
+
+    The contact force is ``F = -mu N v / |v|``, opposing the slip ``v`` (:func:`slip_velocity`), N the normal force;
+    at zero slip the kinetic law gives no direction and ``F = 0`` (the Coulomb hybrid of :func:`simulate` decides
+    there whether the disk rolls). With ``mu = 0`` (the default) the centre's horizontal velocity never changes.
+    The model is well posed for ``mu < sqrt(5) / 2``.
+
+    Args:
+        x: shape (10,) or (N, 10), :data:`SLIDING_STATE_NAMES` (m, rad, m/s, rad/s).
+        torque: (2,) or (N, 2): ``[tau_spin, tau_steer]`` in N m; None is zero.
+        friction_coefficient: mu >= 0 (dimensionless).
+        params: the disk; default ``DiskParams()``.
+
+    Returns:
+        ``(dc1, dc2, dphi, dtheta, dpsi, ddc1, ddc2, ddphi, ddtheta, ddpsi)``, same shape as ``x``.
+    """
+    from rolling_disk_env import sliding_engine
+
+    shape, rows, torques, frictions, disks = _sliding_rows(x, torque, friction_coefficient, params)
+    out = np.empty_like(rows)
+    sliding_engine.derivatives(rows, torques, frictions, disks, out)
+    return out.reshape(shape)
+
+
+def _sliding_diagnostics(x, torque, friction_coefficient, params) -> np.ndarray:
+    """Energy (J), normal force (N), friction force F1, F2 (N), slip velocity v1, v2 (m/s): (6,) or (N, 6)."""
+    from rolling_disk_env import sliding_engine
+
+    shape, rows, torques, frictions, disks = _sliding_rows(x, torque, friction_coefficient, params)
+    out = np.empty((rows.shape[0], 6))
+    sliding_engine.diagnostics(rows, torques, frictions, disks, out)
+    return out[0] if len(shape) == 1 else out
+
+
+def sliding_energy(x, params: DiskParams | None = None) -> float | np.ndarray:
+    """Kinetic plus potential energy of sliding states (J), potential zero at the plane: a float, or shape (N,)."""
+    value = _sliding_diagnostics(x, None, 0.0, params)[..., 0]
+    return float(value) if np.ndim(value) == 0 else value
+
+
+def sliding_normal_force(
+    x, torque=(0.0, 0.0), friction_coefficient: float = 0.0, params: DiskParams | None = None
+) -> float | np.ndarray:
+    """The vertical ground reaction on a sliding disk, ``N = m (g + c3'')`` (N), under kinetic friction of
+    coefficient mu (N depends on it: the friction's moment reaches the lean): a float, or shape (N,)."""
+    value = _sliding_diagnostics(x, torque, friction_coefficient, params)[..., 1]
+    return float(value) if np.ndim(value) == 0 else value
+
+
+def friction_force(
+    x, torque=(0.0, 0.0), friction_coefficient: float = 0.0, params: DiskParams | None = None
+) -> np.ndarray:
+    """The kinetic friction force on a sliding disk, ``-mu N v / |v|``, along world x and y (N): (2,) or (N, 2)."""
+    return _sliding_diagnostics(x, torque, friction_coefficient, params)[..., 2:4]
+
+
+def slip_velocity(x, params: DiskParams | None = None) -> np.ndarray:
+    """The slip velocity of sliding states: the horizontal velocity of the disk's material contact point, ``A(q) dq``
+    with the paper's constraint rows A, along world x and y (m/s): (2,) or (N, 2). Zero is rolling."""
+    return _sliding_diagnostics(x, None, 0.0, params)[..., 4:6]
+
+
+def sliding_state(state, params: DiskParams | None = None) -> np.ndarray:
+    """Full (rolling) states ``(c1, c2, phi, theta, psi, dphi, dtheta, dpsi)`` as sliding states: the centre's
+    velocity from the rolling constraint, the slip zero. Shape (8,) -> (10,) or (N, 8) -> (N, 10)."""
+    x = check_states(state)
+    rates = state_derivative(x, None, params)
+    out = np.empty((*x.shape[:-1], 10))
+    out[..., ROLLING_INDICES] = x
+    out[..., 5:7] = rates[..., :2]
+    return out
 
 
 def rotation_matrix(phi: float, theta: float, psi: float) -> np.ndarray:

@@ -11,21 +11,33 @@ step of each written out from its Butcher tableau by :mod:`rolling_disk_env.code
   tolerances ``rtol`` and ``atol`` need (seven evaluations each), from the last accepted step size; it gives up, with
   :class:`OutOfDomainError`, after ``engine.MAX_ADAPTIVE_SUBSTEPS`` steps in one interval.
 * ``"dop853"``: scipy's adaptive Dormand-Prince 8(5,3) on the engine's derivative, the accuracy reference.
+
+Contact models (:data:`CONTACTS`): ``"rolling"``, the paper's, is the default and the only one of the lean model;
+``"sliding"`` (the paper's frozen lake with kinetic Coulomb friction, :func:`rolling_disk_env.sliding_derivative`)
+and ``"coulomb"`` (their hybrid, by Coulomb's law: it rolls while the friction the contact needs is within mu, slides
+when it is not, and sticks again where the slip stops and friction can hold it) integrate 10-states, each disk
+through its own switching events, with the methods of :data:`CONTACT_METHODS` (see :func:`simulate`).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from rolling_disk_env.constants import ENGINE_METHODS, LEAN_LIMIT
 from rolling_disk_env.dynamics import (
+    FULL_MODEL,
     LEAN_MODEL,
     MODELS,
+    ROLLING_INDICES,
+    SLIDING_MODEL,
     DiskParams,
     Model,
     OutOfDomainError,
+    check_friction_coefficient,
     check_states,
     check_torques,
     disk_rows,
@@ -36,6 +48,23 @@ METHODS = (*ENGINE_METHODS, "dop853")
 """The ``method`` names :func:`simulate` takes: the engine's, then scipy's ``"dop853"`` (the accuracy reference)."""
 EVALUATIONS_PER_STEP = {"euler": 1, "symplectic_euler": 2, "rk4": 4}
 """Derivative evaluations per step of the fixed-step methods (the cost unit of the benchmarks)."""
+CONTACTS = ("rolling", "sliding", "coulomb")
+"""The contact models: the paper's rolling without slipping (the default), the frozen lake with kinetic friction, and
+Coulomb's hybrid of the two."""
+CONTACT_METHODS = ("rk4", "dopri5", "dop853")
+"""The methods of the ``"sliding"`` and ``"coulomb"`` contacts. ``"rk4"`` takes fixed steps of dt and locates a
+switching event by root-finding on the length of the step that crosses it. ``"dopri5"`` and ``"dop853"`` are scipy's
+RK45 (the Dormand-Prince 5(4) pair of the engine's dopri5, with scipy's step control) and DOP853 under ``rtol`` and
+``atol``, events located on their dense output. Euler's methods are refused: their first-order error would swamp the
+events."""
+ZERO_SLIP = 1e-12
+"""A slip speed below ``ZERO_SLIP * sqrt(g r)`` counts as zero: the round-off of a rolling state's slip."""
+EVENT_TIME_TOLERANCE = 1e-13
+"""s. How closely the root-finding brackets a switching event's time (far below the integrators' own error)."""
+MAX_SWITCHES = 10_000
+"""Switching events one disk may take in a ``"coulomb"`` simulation before it raises (stick-slip chattering)."""
+MAX_CONTACT_STEPS = 1_000_000
+"""Steps one disk may take in a ``"sliding"`` or ``"coulomb"`` simulation before it raises."""
 
 
 class RollingContactError(OutOfDomainError):
@@ -123,12 +152,15 @@ def simulate(
     rtol: float = 1e-10,
     atol: float = 1e-10,
     friction_coefficient: float | None = None,
+    contact: str = "rolling",
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Integrates the rolling disk from ``state0`` for ``duration`` seconds.
+    """Integrates the disk from ``state0`` for ``duration`` seconds.
 
     Args:
         state0: initial state, shape (size,) for one disk or (N, size) for N disks at once; size 8 for the full
-            model, 4 for the lean model ``(theta, dphi, dtheta, dpsi)``.
+            model, 4 for the lean model ``(theta, dphi, dtheta, dpsi)``. Under ``"sliding"`` and ``"coulomb"``,
+            size 10 (:data:`rolling_disk_env.SLIDING_STATE_NAMES`), or 8: a rolling state, its centre's velocity
+            from the rolling constraint.
         duration: simulated time, s.
         dt: step of the fixed-step methods and spacing of the output times, s. The last step is shortened to end
             exactly at ``duration``.
@@ -140,20 +172,31 @@ def simulate(
         model: ``"full"`` or ``"lean"`` (the reduced model, with c1, c2, phi and psi left out).
         rtol: relative tolerance of ``"dopri5"`` and ``"dop853"``.
         atol: absolute tolerance of ``"dopri5"`` and ``"dop853"``.
-        friction_coefficient: if set, the contact's friction coefficient mu: the simulation stops with
-            :class:`RollingContactError` at the first output time where the contact needs more
-            (``required_friction > mu``). It always stops where the normal force vanishes (lift-off).
+        friction_coefficient: the contact's friction coefficient mu. Under ``"rolling"``, None (the default) or a
+            number > 0: the simulation stops with :class:`RollingContactError` at the first output time where the
+            contact needs more (``required_friction > mu``). Under ``"sliding"``, a number >= 0, None meaning 0 (the
+            frozen lake). Under ``"coulomb"``, a number >= 0, required.
+        contact: one of :data:`CONTACTS`. ``"sliding"`` and ``"coulomb"`` take the ``model="full"``, the methods of
+            :data:`CONTACT_METHODS`, and return 10-states; see :func:`simulate_contact`, which also returns the
+            switching events. Every contact stops where the normal force vanishes (lift-off).
 
     Returns:
         ``(times, states)``: times of shape (T,) from 0 to ``duration``, states of shape (T, size) or (T, N, size).
 
     Raises:
-        ValueError: a bad argument (shape, finiteness, unknown method or model).
+        ValueError: a bad argument (shape, finiteness, unknown method, model or contact).
         OutOfDomainError: the lean reaches ``LEAN_LIMIT``, the state stops being finite or ``"dopri5"`` gives up;
             names the time and theta.
-        RollingContactError: (an ``OutOfDomainError``) the disk slipped or lifted off; names the time, the required
-            friction and the normal force.
+        RollingContactError: (an ``OutOfDomainError``) the disk slipped (under ``"rolling"``) or lifted off; names
+            the time, the required friction and the normal force.
     """
+    if contact not in CONTACTS:
+        raise ValueError(f"contact must be one of {CONTACTS}, got {contact!r}")
+    if contact != "rolling":
+        trajectory = simulate_contact(
+            state0, duration, dt, method, torque, params, model, rtol, atol, friction_coefficient, contact
+        )
+        return trajectory.times, trajectory.states
     if model not in MODELS:
         raise ValueError(f"model must be one of {sorted(MODELS)}, got {model!r}")
     if method not in METHODS:
@@ -253,3 +296,399 @@ def _simulate_dop853(system: Model, rows, times, torque_at, disks, rtol, atol, f
     for time, x in zip(times, states):
         _contact_check(system, np.ascontiguousarray(x), torque_at(time, x), disks, friction, time)
     return states
+
+
+class SwitchEvent(NamedTuple):
+    """A switching event of a disk under the ``"coulomb"`` (or ``"sliding"``) contact.
+
+    Attributes:
+        time: s.
+        kind: ``"slip"``, the contact needs more friction than mu and the disk starts sliding (at the start too, for
+            a rolling start that needs more); ``"stick"``, the slip
+            stopped where friction can hold it and the disk rolls again; ``"reslip"``, the slip stopped where friction
+            cannot hold it and the disk slides on, in a new direction.
+        state: the 10-state there (with zero slip after a ``"stick"`` or ``"reslip"``).
+    """
+
+    time: float
+    kind: str
+    state: np.ndarray
+
+
+class ContactTrajectory(NamedTuple):
+    """What :func:`simulate_contact` returns.
+
+    Attributes:
+        times: shape (T,), s.
+        states: 10-states, shape (T, 10) or (T, N, 10).
+        events: the :class:`SwitchEvent` of one disk in time order, or a tuple of them per disk for a batch.
+    """
+
+    times: np.ndarray
+    states: np.ndarray
+    events: tuple
+
+
+def simulate_contact(
+    state0,
+    duration: float,
+    dt: float,
+    method: str = "rk4",
+    torque=None,
+    params: DiskParams | None = None,
+    model: str = "full",
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    friction_coefficient: float | None = None,
+    contact: str = "coulomb",
+) -> ContactTrajectory:
+    """:func:`simulate` under the ``"sliding"`` or the ``"coulomb"`` contact, with the switching events.
+
+    ``"sliding"``: the sliding model throughout, kinetic friction ``-mu N v / |v|`` at the contact. Its law gives no
+    force direction at zero slip, so a disk whose slip is zero starts sliding with the friction the rolling contact
+    needs there, at its limit ``mu N`` (the direction in which slip starts), and the simulation raises
+    :class:`OutOfDomainError` where the slip is zero and friction could hold it: that disk would roll, which the
+    ``"coulomb"`` contact models. With mu = 0 (the frozen lake) the contact force is zero throughout.
+
+    ``"coulomb"``: Coulomb's set-valued law (a contact force within ``mu N`` while the slip is zero, ``-mu N v / |v|``
+    otherwise) as Le Saux, Leine and Glocker (2005, *Dynamics of a rolling disk in the presence of dry friction*,
+    J. Nonlinear Sci. 15) state it for this disk. They integrate it with a time-stepping scheme; here it is
+    event-driven, one mode at a time (on the slip's direction at its onset see also Antali and Stepan, 2019,
+    *Nonsmooth analysis of three-dimensional slipping and rolling in the presence of dry friction*, Nonlinear Dyn.
+    97):
+
+    * the disk *rolls* (the rolling model, the centre's velocity from the constraint) while the friction it needs is
+      within mu, ``|lambda| <= mu N``;
+    * it *slips* where ``|lambda|`` reaches ``mu N`` (an event located on ``mu N - |lambda| = 0``), starting with
+      zero slip and the friction force ``mu N lambda / |lambda|``, along the force the contact needed (at that
+      instant the sliding and the rolling accelerations agree), then slides with kinetic friction;
+    * where the slip speed reaches zero (an event located on ``v . v0 = 0``, ``v0`` the slip at the start of the
+      integration step, the friction of the approach continued through the stop so that the step stays smooth) it
+      *sticks* and rolls again if ``|lambda| <= mu N`` there, or slides on (``"reslip"``), starting as at a slip.
+      The state is projected onto the rolling constraint there (removing a slip within the integrator's error).
+
+    Torques: ``"rk4"`` samples a callable torque at the start of each output interval and holds it over it;
+    ``"dopri5"`` and ``"dop853"`` call it at every evaluation; it receives the 10-state. A batch takes constant
+    torques only, each disk running through its own events.
+
+    Args:
+        state0: (10,) or (N, 10), :data:`rolling_disk_env.SLIDING_STATE_NAMES`; or (8,) or (N, 8), rolling states,
+            their centre's velocity from the rolling constraint.
+        duration, dt, torque, params, rtol, atol: as for :func:`simulate`.
+        method: one of :data:`CONTACT_METHODS`.
+        model: ``"full"``, the only model with a centre that can slide.
+        friction_coefficient: mu >= 0; under ``"sliding"``, None means 0.
+        contact: ``"sliding"`` or ``"coulomb"``.
+
+    Returns:
+        A :class:`ContactTrajectory`.
+
+    Raises:
+        ValueError: a bad argument.
+        OutOfDomainError: the lean reaches ``LEAN_LIMIT``, the state stops being finite, scipy's integrator fails,
+            more than :data:`MAX_CONTACT_STEPS` steps or :data:`MAX_SWITCHES` events, or a ``"sliding"`` disk at zero
+            slip that friction could hold.
+        RollingContactError: the normal force vanished (``reason = "lifted_off"``).
+    """
+    if contact not in ("sliding", "coulomb"):
+        raise ValueError(f"contact must be 'sliding' or 'coulomb' here, got {contact!r}")
+    if model != "full":
+        raise ValueError(
+            f"contact={contact!r} takes model='full' (the lean model has no centre to slide), got {model!r}"
+        )
+    if method not in CONTACT_METHODS:
+        raise ValueError(f"method must be one of {CONTACT_METHODS} under contact={contact!r}, got {method!r}")
+    for name, value in (("rtol", rtol), ("atol", atol)):
+        if not (is_number(value) and 0 < value < 1):
+            raise ValueError(f"{name} must be a number in (0, 1), got {value!r}")
+    if friction_coefficient is None and contact == "coulomb":
+        raise ValueError("contact='coulomb' needs a friction_coefficient (a finite number >= 0)")
+    mu = 0.0 if friction_coefficient is None else check_friction_coefficient(friction_coefficient)
+    x0 = _sliding_start(state0, params)
+    times = _output_times(duration, dt)
+    batch = None if x0.ndim == 1 else x0.shape[0]
+    if callable(torque) and batch is not None:
+        raise ValueError(
+            f"a callable torque needs one disk under contact={contact!r} (each disk switches at its own events), "
+            f"got a batch of {batch}: simulate them one by one"
+        )
+    rows = x0.reshape(-1, SLIDING_MODEL.size)
+    torques = None if callable(torque) else check_torques(torque, batch)
+    disks = disk_rows(params, rows.shape[0])
+    states = np.empty((len(times), *rows.shape))
+    events = []
+    for i, row in enumerate(rows):
+        run = _ContactRun(contact, method, mu, torque if torques is None else torques[i], disks[i], rtol, atol, times)
+        states[:, i], disk_events = run.run(row)
+        events.append(disk_events)
+    return ContactTrajectory(
+        times, states.reshape(len(times), *x0.shape), events[0] if batch is None else tuple(events)
+    )
+
+
+def _sliding_start(state0, params: DiskParams | None) -> np.ndarray:
+    """``state0`` as checked 10-states: as given, or rolling 8-states with the centre's velocity of the constraint."""
+    from rolling_disk_env.dynamics import sliding_state
+
+    shape = np.shape(state0)
+    if len(shape) not in (1, 2) or shape[-1] not in (8, 10):
+        raise ValueError(f"state0 must have shape (8,), (10,), (N, 8) or (N, 10), got {shape}")
+    if shape[-1] == 8:
+        return sliding_state(check_states(state0, FULL_MODEL, "state0"), params)
+    return check_states(state0, SLIDING_MODEL, "state0")
+
+
+def _rk4(rhs, t: float, y: np.ndarray, h: float) -> np.ndarray:
+    """One classical Runge-Kutta step of ``h`` seconds."""
+    k1 = rhs(t, y)
+    k2 = rhs(t + h / 2, y + h / 2 * k1)
+    k3 = rhs(t + h / 2, y + h / 2 * k2)
+    k4 = rhs(t + h, y + h * k3)
+    return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+@dataclass
+class _Phase:
+    """What a disk integrates between two switching events: the rolling model on 8-states, or the sliding model on
+    10-states with the friction at zero slip (``onset``, per unit normal force) and the slip direction at the start
+    of the current step (``reference``, zeros for none)."""
+
+    rolling: bool
+    onset: np.ndarray
+    reference: np.ndarray
+
+
+class _ContactRun:
+    """One disk through a ``"sliding"`` or ``"coulomb"`` simulation: its phases, switching events and outputs."""
+
+    def __init__(self, contact: str, method: str, mu: float, torque, disk: np.ndarray, rtol, atol, times):
+        self.contact, self.method, self.mu, self.rtol, self.atol, self.times = contact, method, mu, rtol, atol, times
+        self.policy = torque if callable(torque) else None
+        self.held = np.zeros(2) if self.policy else np.asarray(torque, dtype=np.float64)
+        self.per_evaluation = self.policy is not None and method != "rk4"
+        self.disk = np.ascontiguousarray(disk)
+        self.zero_slip = ZERO_SLIP * math.sqrt(disk[1] * disk[2])
+        self.out = np.empty((len(times), SLIDING_MODEL.size))
+        self.events: list[SwitchEvent] = []
+        self.steps = 0
+        self._rows = (np.empty((1, 8)), np.empty((1, 2)), self.disk.reshape(1, 3), np.empty((1, 8)), np.empty((1, 5)))
+
+    # The models, for one disk.
+    def _rolling(self, kernel, y: np.ndarray, u: np.ndarray, out: np.ndarray) -> np.ndarray:
+        rows, torques, disks = self._rows[0], self._rows[1], self._rows[2]
+        rows[0], torques[0] = y, u
+        kernel(rows, torques, disks, out)
+        return out[0]
+
+    def to_sliding(self, y: np.ndarray) -> np.ndarray:
+        """The 10-state of a rolling 8-state: the centre's velocity from the constraint (torque-free)."""
+        from rolling_disk_env import engine
+
+        x = np.empty(SLIDING_MODEL.size)
+        x[list(ROLLING_INDICES)] = y
+        x[5:7] = self._rolling(engine.derivatives, y, np.zeros(2), self._rows[3])[:2]
+        return x
+
+    def torque(self, t: float, y: np.ndarray) -> np.ndarray:
+        if not self.per_evaluation:
+            return self.held
+        return self.sample(t, y if y.size == SLIDING_MODEL.size else self.to_sliding(y))
+
+    def sample(self, t: float, x: np.ndarray) -> np.ndarray:
+        """The torque at ``t`` in the 10-state ``x`` (N m)."""
+        return self.held if self.policy is None else check_torques(self.policy(t, x.copy()), None)[0]
+
+    def rolling_rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        from rolling_disk_env import engine
+
+        return self._rolling(engine.derivatives, y, self.torque(t, y), self._rows[3]).copy()
+
+    def rolling_contact(self, t: float, y: np.ndarray) -> tuple[float, np.ndarray]:
+        """``(N, lambda)`` of a rolling 8-state (N)."""
+        from rolling_disk_env import engine
+
+        values = self._rolling(engine.diagnostics, y, self.torque(t, y), self._rows[4])
+        return float(values[3]), values[1:3].copy()
+
+    def sliding_rhs(self, phase: _Phase, t: float, y: np.ndarray) -> np.ndarray:
+        from rolling_disk_env import sliding_engine
+
+        out = np.empty(SLIDING_MODEL.size)
+        u = self.torque(t, y)
+        sliding_engine.hybrid_derivative(y, u, self.mu, phase.onset, phase.reference, self.zero_slip, self.disk, out)
+        return out
+
+    def sliding_contact(self, phase: _Phase, t: float, y: np.ndarray) -> tuple[float, np.ndarray]:
+        """``(N, v)`` of a sliding 10-state: normal force (N) and slip velocity (m/s)."""
+        from rolling_disk_env import sliding_engine
+
+        values = sliding_engine.hybrid_diagnostics(
+            y, self.torque(t, y), self.mu, phase.onset, phase.reference, self.zero_slip, self.disk
+        )
+        return values[1], np.array(values[4:6])
+
+    # Events.
+    def event_function(self, phase: _Phase, t: float, y: np.ndarray, check: bool = False) -> float | None:
+        """The phase's switching function, positive until its event (None: no event possible in this step):
+        ``mu N - |lambda|`` when rolling, ``v . reference`` when sliding. With ``check``, raises where the state
+        has left the domain or the normal force vanished."""
+        if check:
+            self.steps += 1
+            theta = y[3]
+            if not (np.all(np.isfinite(y)) and abs(theta) < LEAN_LIMIT):
+                raise _domain_error(t, theta if math.isfinite(theta) else math.nan)
+            if self.steps > MAX_CONTACT_STEPS:
+                raise OutOfDomainError(f"{MAX_CONTACT_STEPS} steps did not reach t = {self.times[-1]:.6g} s", time=t)
+        if phase.rolling:
+            normal, force = self.rolling_contact(t, y)
+            value = self.mu * normal - math.hypot(*force)
+        else:
+            normal, slip = self.sliding_contact(phase, t, y)
+            value = float(slip @ phase.reference) if phase.reference.any() else None
+        if check and not normal > 0:
+            raise _lift_off(t, normal)
+        return value
+
+    def set_reference(self, phase: _Phase, t: float, y: np.ndarray) -> None:
+        """Starts a sliding step at ``y``: the direction of its slip, where there is one, and mu > 0."""
+        if phase.rolling:
+            return
+        phase.reference = np.zeros(2)
+        _, slip = self.sliding_contact(phase, t, y)
+        speed = math.hypot(*slip)
+        if self.mu > 0 and speed > self.zero_slip:
+            phase.reference = slip / speed
+
+    def at_rest(self, t: float, rolling_state: np.ndarray) -> tuple[_Phase, np.ndarray, str]:
+        """The phase of a disk with zero slip: it rolls (``"stick"``) if friction holds it, else slides with the
+        friction the rolling contact needs at its limit ``mu N`` (``"reslip"``)."""
+        x = self.to_sliding(rolling_state)
+        normal, force = self.rolling_contact(t, rolling_state)
+        if not normal > 0:
+            raise _lift_off(t, normal)
+        need = math.hypot(*force)
+        if need <= self.mu * normal and self.contact == "coulomb":
+            return _Phase(True, np.zeros(2), np.zeros(2)), rolling_state.copy(), "stick"
+        if need <= self.mu * normal and self.mu > 0:
+            raise OutOfDomainError(
+                f"at t = {t:.6g} s the slip is zero and friction holds the disk (it needs |lambda| / N = "
+                f"{need / normal:.6g} <= friction_coefficient = {self.mu}): the kinetic law of contact='sliding' has "
+                "no force there; contact='coulomb' rolls on",
+                time=t,
+            )
+        onset = self.mu * force / need if need > 0 else np.zeros(2)
+        return _Phase(False, onset, np.zeros(2)), x, "reslip"
+
+    def run(self, x0: np.ndarray) -> tuple[np.ndarray, tuple[SwitchEvent, ...]]:
+        t, k = self.times[0], 1
+        self.out[0] = x0
+        self.held = self.sample(t, x0)
+        free = _Phase(False, np.zeros(2), np.zeros(2))
+        _, slip = self.sliding_contact(free, t, x0)
+        if (self.contact == "sliding" and self.mu == 0) or math.hypot(*slip) > self.zero_slip:
+            phase, y = free, x0.copy()
+        else:
+            phase, y, _ = self.at_rest(t, x0[list(ROLLING_INDICES)])
+            if not phase.rolling:  # a rolling start whose contact needs more friction than mu
+                self.events.append(SwitchEvent(t, "slip", y.copy()))
+        advance = self.advance_rk4 if self.method == "rk4" else self.advance_adaptive
+        while True:
+            t_event, y_event, k = advance(phase, t, y, k)
+            if t_event is None:
+                return self.out, tuple(self.events)
+            if phase.rolling:  # the needed friction reached mu N: slip starts along the needed force
+                _, force = self.rolling_contact(t_event, y_event)
+                onset = self.mu * force / math.hypot(*force)
+                phase, y, kind = _Phase(False, onset, np.zeros(2)), self.to_sliding(y_event), "slip"
+            else:  # the slip stopped
+                phase, y, kind = self.at_rest(t_event, y_event[list(ROLLING_INDICES)])
+            t = t_event
+            self.events.append(SwitchEvent(t, kind, y.copy() if y.size == SLIDING_MODEL.size else self.to_sliding(y)))
+            if len(self.events) > MAX_SWITCHES:
+                raise OutOfDomainError(
+                    f"the contact switched more than {MAX_SWITCHES} times by t = {t:.6g} s (stick-slip chattering)",
+                    time=t,
+                )
+
+    def full(self, phase: _Phase, y: np.ndarray) -> np.ndarray:
+        return self.to_sliding(y) if phase.rolling else y
+
+    def advance_rk4(self, phase: _Phase, t: float, y: np.ndarray, k: int):
+        """Fixed steps to the output times from ``(t, y)``: ``(t, y, k)`` at the phase's first event (k: the next
+        output to write), or ``(None, None, k)`` at the end. A step that crosses the event is repeated with the
+        length at which the switching function vanishes."""
+
+        def rhs(time, state):
+            return self.rolling_rhs(time, state) if phase.rolling else self.sliding_rhs(phase, time, state)
+
+        while k < len(self.times):
+            self.set_reference(phase, t, y)
+            before = self.event_function(phase, t, y)
+            h = self.times[k] - t
+            new = _rk4(rhs, t, y, h)
+            after = self.event_function(phase, t + h, new, check=True)
+            if before is not None and before > 0 >= after:
+                length = _root(lambda s, t=t, y=y: self.event_function(phase, t + s, _rk4(rhs, t, y, s)), 0.0, h)
+                return t + length, _rk4(rhs, t, y, length), k
+            t, y = self.times[k], new
+            self.out[k] = self.full(phase, y)
+            k += 1
+            if k < len(self.times):
+                self.held = self.sample(t, self.out[k - 1])
+        return None, None, k
+
+    def advance_adaptive(self, phase: _Phase, t: float, y: np.ndarray, k: int):
+        """scipy's RK45 or DOP853 from ``(t, y)``, outputs from its dense output: as :meth:`advance_rk4`, the event
+        located on the dense output of the step that crosses it."""
+        from scipy.integrate import DOP853, RK45
+
+        def rhs(time, state):
+            return self.rolling_rhs(time, state) if phase.rolling else self.sliding_rhs(phase, time, state)
+
+        stepper = (DOP853 if self.method == "dop853" else RK45)(
+            rhs, t, y, self.times[-1], rtol=self.rtol, atol=self.atol
+        )
+        self.set_reference(phase, t, y)
+        while stepper.status == "running":
+            before = self.event_function(phase, t, y)
+            with np.errstate(all="ignore"):
+                message = stepper.step()
+            if stepper.status == "failed":
+                raise OutOfDomainError(f"{self.method} failed at t = {stepper.t:.6g} s: {message}", time=stepper.t)
+            new = stepper.y.copy()
+            after = self.event_function(phase, stepper.t, new, check=True)
+            dense = stepper.dense_output()
+            if before is not None and before > 0 >= after:
+                time = _root(lambda s, dense=dense: self.event_function(phase, s, dense(s)), t, stepper.t)
+                return time, dense(time), self.fill(phase, dense, time, k)
+            k = self.fill(phase, dense, stepper.t, k)
+            t, y = stepper.t, new
+            self.set_reference(phase, t, y)
+        return None, None, k
+
+    def fill(self, phase: _Phase, dense, end: float, k: int) -> int:
+        """Writes the outputs up to ``end`` from a step's dense output; returns the next output to write."""
+        stop = int(np.searchsorted(self.times, end, side="right"))
+        if stop > k:
+            for j, y in zip(range(k, stop), dense(self.times[k:stop]).T):
+                self.out[j] = self.full(phase, y)
+        return max(k, stop)
+
+
+def _root(function, low: float, high: float) -> float:
+    """Where ``function`` (positive at ``low``, not at ``high``) vanishes, within :data:`EVENT_TIME_TOLERANCE`."""
+    from scipy.optimize import brentq
+
+    if not function(high) < 0:
+        return high
+    return brentq(function, low, high, xtol=EVENT_TIME_TOLERANCE)
+
+
+def _lift_off(time: float, normal: float) -> RollingContactError:
+    return RollingContactError(
+        f"at t = {time:.6g} s the normal force vanished: the disk lifted off the plane (N = {normal:.6g} N)",
+        time=time,
+        reason="lifted_off",
+        required_friction=math.inf,
+        normal_force=normal,
+    )

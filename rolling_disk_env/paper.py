@@ -9,7 +9,8 @@ paper's two simulations as seen from above, with the disk's rim drawn at a few i
   a steady circle.
 
 It also says whether scenario 2's steady circle is stable (the eigenvalues of the lean model linearized about it)
-and what friction coefficient its contact needs (``|lambda| / N``).
+and what friction coefficient its contact needs (``|lambda| / N``); and draws scenario 1 again on the paper's "flat
+frozen lake" (the sliding model without friction, started with the rolling disk's velocities) beside the rolling one.
 """
 
 from __future__ import annotations
@@ -224,32 +225,63 @@ def steady_circle_report(scenario: Scenario) -> str:
     )
 
 
-def draw(scenario: Scenario, path: Path, dt: float = 0.01) -> Path:
-    """Simulates a scenario with ``"dop853"`` and draws it from above: the centre's track and the disk at a few
-    instants (an ellipse in projection, the first one filled), axes in metres."""
+def _pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    return plt
+
+
+def _draw_from_above(ax, times: np.ndarray, states: np.ndarray, title: str, color: str = "tab:blue") -> None:
+    """The centre's track and the disk at 9 instants (an ellipse in projection, the first one filled), seen from
+    above, axes in metres; states of the rolling (8) or the sliding (10) model."""
     radius = DEFAULT_PARAMS.radius
-    times, states = simulate(np.array(scenario.state0, dtype=float), scenario.duration, dt, method="dop853")
-    fig, ax = plt.subplots(figsize=(6.5, 6.5))
     ax.plot(states[:, 0], states[:, 1], color="black", lw=1.2, label="centre (c1, c2)")
     instants = np.linspace(0, len(times) - 1, 9).astype(int)
     for number, i in enumerate(instants):
         rim = rim_points(states[i], radius)
         if number == 0:
-            ax.fill(rim[:, 0], rim[:, 1], color="tab:blue", alpha=0.6, label="disk at t = 0")
-        ax.plot(rim[:, 0], rim[:, 1], color="tab:blue", lw=0.8)
+            ax.fill(rim[:, 0], rim[:, 1], color=color, alpha=0.6, label="disk at t = 0")
+        ax.plot(rim[:, 0], rim[:, 1], color=color, lw=0.8)
         ax.annotate(f"{times[i]:.1f} s", (states[i, 0], states[i, 1]), fontsize=7, color="tab:gray")
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
-    x0 = ", ".join(f"{v:.3g}" for v in scenario.state0)
-    ax.set_title(f"{scenario.title}\nx0 = ({x0}), t in [0, {scenario.duration:g}] s", fontsize=10)
+    ax.set_title(title, fontsize=10)
     ax.legend(loc="best", fontsize=8)
+
+
+def draw(scenario: Scenario, path: Path, dt: float = 0.01) -> Path:
+    """Simulates a scenario with ``"dop853"`` and draws it from above (:func:`_draw_from_above`)."""
+    plt = _pyplot()
+    times, states = simulate(np.array(scenario.state0, dtype=float), scenario.duration, dt, method="dop853")
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    x0 = ", ".join(f"{v:.3g}" for v in scenario.state0)
+    _draw_from_above(ax, times, states, f"{scenario.title}\nx0 = ({x0}), t in [0, {scenario.duration:g}] s")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def draw_frozen_lake(scenario: Scenario, path: Path, dt: float = 0.01) -> Path:
+    """Simulates a scenario rolling and on the paper's frozen lake (``contact="sliding"``, no friction, the
+    centre's velocity at the start that of rolling), both with ``"dop853"``, and draws them side by side from
+    above: on the ice the centre keeps its velocity, a straight line, while the disk spins, leans and turns about
+    it."""
+    plt = _pyplot()
+    state0 = np.array(scenario.state0, dtype=float)
+    rolling = simulate(state0, scenario.duration, dt, method="dop853")
+    sliding = simulate(state0, scenario.duration, dt, method="dop853", contact="sliding", rtol=1e-12, atol=1e-12)
+    lean = np.degrees(np.abs(sliding[1][:, 3]).max())
+    fig, axes = plt.subplots(1, 2, figsize=(11, 7.5), width_ratios=(2.2, 1))
+    _draw_from_above(axes[0], *rolling, "rolling without slipping (the paper's model)")
+    _draw_from_above(axes[1], *sliding, f"on the frozen lake: no friction\n(lean up to {lean:.0f} deg)", "tab:cyan")
+    x0 = ", ".join(f"{v:.3g}" for v in scenario.state0)
+    fig.suptitle(f"{scenario.title}, rolling and on ice\nx0 = ({x0}), t in [0, {scenario.duration:g}] s", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -283,6 +315,8 @@ def main(argv: list[str] | None = None) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     for scenario in scenarios():
         print(f"wrote {draw(scenario, args.out / f'{scenario.name}.png')}")
+    first = scenarios()[0]
+    print(f"wrote {draw_frozen_lake(first, args.out / f'{first.name}_frozen_lake.png')}")
 
 
 if __name__ == "__main__":

@@ -71,3 +71,42 @@ def random_states(rng: np.random.Generator, count: int) -> np.ndarray:
     states[:, 3] = rng.uniform(-1, 1, count)
     states[:, 5:] = rng.uniform(-4, 4, (count, 3))
     return states
+
+
+# The sliding disk: the same rigid body with its centre's horizontal velocity (dc1, dc2) free, a 10-state
+# (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi).
+
+
+def rolling_layout(state: np.ndarray) -> np.ndarray:
+    """The 8 components of a 10-state that the functions above read: (c1, c2, phi, theta, psi, dphi, dtheta, dpsi)."""
+    return np.asarray(state)[[0, 1, 2, 3, 4, 7, 8, 9]]
+
+
+def centre_velocity_sliding(state: np.ndarray, params: DiskParams) -> np.ndarray:
+    """(dc1, dc2, d/dt of the centre's height), the height of a disk touching the plane being r cos(theta) (m/s)."""
+    return np.array([state[5], state[6], -params.radius * np.sin(state[3]) * state[8]])
+
+
+def contact_point_velocity(state: np.ndarray, params: DiskParams) -> np.ndarray:
+    """Velocity of the disk's material point at the contact: c' + omega x (p - c) (m/s)."""
+    rolling = rolling_layout(state)
+    return centre_velocity_sliding(state, params) + np.cross(
+        angular_velocity_world(rolling), contact_offset(rolling, params)
+    )
+
+
+def energy_sliding(state: np.ndarray, params: DiskParams) -> float:
+    """Kinetic + potential energy of a sliding thin disk (J)."""
+    rolling = rolling_layout(state)
+    omega_body = rotation(*rolling[2:5]).T @ angular_velocity_world(rolling)
+    inertia = np.diag([params.axial_inertia, params.diametral_inertia, params.diametral_inertia])
+    velocity = centre_velocity_sliding(state, params)
+    kinetic = 0.5 * params.mass * velocity @ velocity + 0.5 * omega_body @ inertia @ omega_body
+    return kinetic + params.mass * params.gravity * centre(rolling, params)[2]
+
+
+def torque_power(state: np.ndarray, torque: np.ndarray) -> float:
+    """Power of tau_spin about the disk's axis R e1 and tau_steer about +z (W); any state layout of 8 or 10."""
+    rolling = rolling_layout(state) if len(state) == 10 else state
+    omega = angular_velocity_world(rolling)
+    return torque[0] * rotation(*rolling[2:5])[:, 0] @ omega + torque[1] * omega[2]
