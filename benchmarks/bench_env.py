@@ -7,10 +7,15 @@
 1. One ``env.step`` of every env built with ``gymnasium.make`` and its defaults (so with its wrappers), random
    actions drawn beforehand, reset when an episode ends.
 2. The vector envs of ``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")``, default
-   settings, random actions drawn beforehand, Gymnasium's next-step autoreset: env steps per second (N per call).
-3. Our vector env on one thread and on numba's threads (``rolling_disk_env.envs.batch.THREADS_FROM`` set so that
-   the batch has one share, or one share a thread), around ``THREADS_FROM``, the batch size from which the env
-   uses threads.
+   settings, random actions drawn beforehand, Gymnasium's next-step autoreset: env steps per second (N per call),
+   every task against ``CartPoleVectorEnv``, for each compile target of :data:`TARGETS`, each in a process of its
+   own (numba reads its target when it starts): the host's CPU, AVX2 code (``haswell``'s features, which give AVX2
+   code on any x86-64 host, AVX-512 ones included) and the x86-64 baseline (SSE2: two doubles a vector, the width of
+   ARM's NEON).
+3. Our vector env on one thread (one share) and as it steps by default from
+   ``rolling_disk_env.envs.batch.THREADS_FROM`` disks (one share a thread, on the threads or not as its recent steps
+   measured faster: ``envs.batch.ThreadChoice``), around ``THREADS_FROM``. ``benchmarks/bench_threads.py`` measures
+   the same with another process keeping a core busy.
 4. Compile cost, each in a fresh process: ``import rolling_disk_env``; the default env's first ``gym.make``,
    ``reset`` and ``step`` with an empty numba cache (``NUMBA_CACHE_DIR`` set to an empty folder: every kernel
    compiles), then again with that cache warm.
@@ -32,7 +37,7 @@ import time
 import gymnasium as gym
 import numba
 import numpy as np
-from _common import arguments, medians_in_turns, table, write_markdown
+from _common import arguments, cpu, medians_in_turns, table, write_markdown
 
 import rolling_disk_env as rd
 from rolling_disk_env.envs import batch
@@ -47,11 +52,22 @@ SINGLE = {
 VECTOR = {
     "upright": (rd.ENV_ID, {}),
     "circle": (rd.ENV_ID, {"task": "circle"}),
+    "goto": (rd.ENV_ID, {"task": "goto"}),
     "CartPole-v1": ("CartPole-v1", {}),
 }
+TARGETS = {
+    "host": {},
+    "AVX2 (haswell)": {
+        "NUMBA_CPU_NAME": "haswell",
+        "NUMBA_CPU_FEATURES": "+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+popcnt,+sse4.2,+cx16,+movbe",
+    },
+    "x86-64 baseline (SSE2)": {"NUMBA_CPU_NAME": "x86-64", "NUMBA_CPU_FEATURES": ""},
+}
+"""Compile targets of the vector table: numba's environment variables for each (``host``: none set)."""
 SIZES = (1, 8, 64, 512, 4096, 16384)
 THREAD_SIZES = (512, 1024, 2048, 4096, 16384)
-TASKS = ("upright", "circle")
+TASKS = ("upright", "circle", "goto")
+OURS = TASKS
 
 FIRST_STEP = """
 import json, sys, time
@@ -115,7 +131,8 @@ class VectorRun:
         num_envs: N.
         kwargs: the id's keyword arguments.
         seconds: the wall time of one sample, for which the number of calls is calibrated once.
-        threads: force our env onto numba's threads (True) or one thread (False); None leaves the env's choice.
+        threads: split our env into one share a thread, stepped on the threads or not as the env chooses
+            (True), or keep it in one share on the calling thread (False); None leaves it to the env.
     """
 
     def __init__(self, env_id: str, num_envs: int, kwargs: dict, seconds: float, threads: bool | None = None):
@@ -130,7 +147,7 @@ class VectorRun:
         self.env.reset(seed=0)
         rng = np.random.default_rng(0)
         warm_up = random_actions(self.env.action_space, 20, rng)
-        self._step_all(warm_up[:10])  # compiles or loads the threaded step if it was forced on
+        self._step_all(warm_up[:10])  # compiles or loads the steps
         start = time.perf_counter()
         self._step_all(warm_up[10:])
         per_call = (time.perf_counter() - start) / 10
@@ -155,7 +172,7 @@ class VectorRun:
 
 
 def vector_rates(sizes, seconds: float, repeats: int) -> tuple[dict[str, list[float]], list[int]]:
-    """Steps per second of each env of :data:`VECTOR` at each N, and the threads our env stepped on there."""
+    """Steps per second of each env of :data:`VECTOR` at each N, and the threads our env has there."""
     rates, threads = {name: [] for name in VECTOR}, []
     for n in sizes:
         runs = {name: VectorRun(env_id, n, kwargs, seconds) for name, (env_id, kwargs) in VECTOR.items()}
@@ -165,6 +182,16 @@ def vector_rates(sizes, seconds: float, repeats: int) -> tuple[dict[str, list[fl
         for run in runs.values():
             run.close()
     return rates, threads
+
+
+def vector_rates_for(target: str, quick: bool) -> tuple[dict[str, list[float]], list[int]]:
+    """:func:`vector_rates` in a fresh process compiled for ``target`` (a key of :data:`TARGETS`), with the CPU line
+    of its result file."""
+    command = [sys.executable, __file__, "--vector-child"] + (["--quick"] if quick else [])
+    result = subprocess.run(command, env={**os.environ, **TARGETS[target]}, capture_output=True, text=True, check=False)
+    if result.returncode:
+        raise RuntimeError(f"the {target} run failed:\n{result.stderr[-3000:]}")
+    return json.loads(result.stdout.splitlines()[-1])
 
 
 def thread_rows(sizes, seconds: float, repeats: int) -> list[list[object]]:
@@ -215,7 +242,7 @@ def compile_rows(warm_runs: int) -> tuple[list[list[object]], list[str]]:
     return rows, sorted({name for run in (cold, *warm) for name in run["heavy"]})
 
 
-def chart(sizes, rates, path) -> None:
+def chart(sizes, rates, path, cpu: str) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -225,14 +252,15 @@ def chart(sizes, rates, path) -> None:
     labels = {
         "upright": ("o-", "RollingDisk-v0, upright (RK4, 8-state exact model)"),
         "circle": ("^-", "RollingDisk-v0, circle"),
+        "goto": ("v-", "RollingDisk-v0, goto"),
         "CartPole-v1": ("s--", "CartPole-v1's CartPoleVectorEnv (Euler, 4 states)"),
     }
     for name, values in rates.items():
         style, label = labels[name]
         ax.loglog(sizes, values, style, label=label)
+    ax.set_title(f"Native vector envs, random actions (median), {cpu}")
     ax.set_xlabel("number of environments N")
     ax.set_ylabel("env steps per second")
-    ax.set_title("Native vector envs, random actions (median)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -240,9 +268,27 @@ def chart(sizes, rates, path) -> None:
     plt.close(fig)
 
 
+def vector_table(rates: dict[str, list[float]], threads_used: list[int]) -> str:
+    """The vector table: each env's M steps/s, each task's ratio to CartPoleVectorEnv, our threads."""
+    rows = [
+        [
+            n,
+            *(f"{rates[name][i] / 1e6:.3f}" for name in VECTOR),
+            *(f"{rates[name][i] / rates['CartPole-v1'][i]:.2f}" for name in OURS),
+            threads_used[i],
+        ]
+        for i, n in enumerate(SIZES)
+    ]
+    header = ["N", *(f"{name} M steps/s" for name in VECTOR), *(f"{name} / CartPole" for name in OURS), "our threads"]
+    return table(header, rows)
+
+
 def main() -> None:
-    args = arguments(__doc__)
+    args = arguments(__doc__, **{"vector-child": {"action": "store_true", "help": "internal: one target's vector run"}})
     steps, repeats, seconds, warm_runs = (2_000, 3, 0.01, 1) if args.quick else (20_000, 7, 0.2, 3)
+    if args.vector_child:
+        print(json.dumps([*vector_rates(SIZES, seconds, repeats), cpu()]))
+        return
 
     times = single_env_times(steps, repeats)
     acrobot, cartpole = times["Acrobot-v1"], times["CartPole-v1"]
@@ -250,21 +296,12 @@ def main() -> None:
         [name, f"{value * 1e6:.2f}", f"{value / acrobot:.2f}", f"{value / cartpole:.2f}"]
         for name, value in times.items()
     ]
-
-    rates, threads_used = vector_rates(SIZES, seconds, repeats)
-    chart(SIZES, rates, args.out / "env_throughput.png")
-    vector = [
-        [
-            n,
-            f"{rates['upright'][i] / 1e6:.3f}",
-            f"{rates['circle'][i] / 1e6:.3f}",
-            f"{rates['CartPole-v1'][i] / 1e6:.3f}",
-            f"{rates['upright'][i] / rates['CartPole-v1'][i]:.2f}",
-            f"{rates['circle'][i] / rates['CartPole-v1'][i]:.2f}",
-            threads_used[i],
-        ]
-        for i, n in enumerate(SIZES)
-    ]
+    vector = []
+    for target in TARGETS:
+        rates, threads_used, target_cpu = vector_rates_for(target, args.quick)
+        if target == "host":
+            chart(SIZES, rates, args.out / "env_throughput.png", target_cpu)
+        vector += [f"### Compiled for {target}: {target_cpu}", "", vector_table(rates, threads_used), ""]
     threads = thread_rows(THREAD_SIZES, seconds, repeats)
     compiled, heavy = compile_rows(warm_runs)
 
@@ -281,26 +318,15 @@ def main() -> None:
             "",
             f"## Native vector envs (median of {repeats} samples of about {seconds:g} s each)",
             "",
-            table(
-                [
-                    "N",
-                    "upright M steps/s",
-                    "circle M steps/s",
-                    "CartPole-v1 M steps/s",
-                    "upright / CartPole",
-                    "circle / CartPole",
-                    "our threads",
-                ],
-                vector,
-            ),
-            "",
+            *vector,
             "![throughput](env_throughput.png)",
             "",
-            f"## Our vector env on one thread and on {numba.get_num_threads()} numba threads (the env uses them from "
-            f"N = envs.batch.THREADS_FROM = {batch.THREADS_FROM})",
+            f"## Our vector env on one thread and split for {numba.get_num_threads()} numba threads (the env splits"
+            f" from N = envs.batch.THREADS_FROM = {batch.THREADS_FROM} and steps the shares on the threads or not, as"
+            " its recent steps measured faster)",
             "",
             table(
-                ["N", "task", "1 thread M steps/s", "threads M steps/s", "threads / 1 thread", "the env's threads"],
+                ["N", "task", "1 thread M steps/s", "shares M steps/s", "shares / 1 thread", "the env's threads"],
                 threads,
             ),
             "",

@@ -521,18 +521,19 @@ def step_{method}_share(k, actions, batch, setup, out):
 
 @kernel
 def step_{method}(actions, batch, setup, out):
-    \"\"\"Steps a batch of one share (see :func:`step_{method}_share`); returns the first disk with a non-finite action
-    (then nothing is stepped), or -1.\"\"\"
+    \"\"\"Steps a batch (see :func:`step_{method}_share`), its shares one after the other on the calling thread;
+    returns the first disk with a non-finite action (then nothing is stepped), or -1.\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_{method}_share(np.int64(0), actions, batch, setup, out)
+        for k in range(batch[0].shape[1]):
+            step_{method}_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
 def step_{method}_threads(actions, batch, setup, out):
-    \"\"\":func:`step_{method}` for a batch of several shares, a share per thread (the share index is cast to the
-    type the serial step passes, so that both call the same compiled share).\"\"\"
+    \"\"\":func:`step_{method}` with the shares on numba's threads, a share per thread (the share index is cast to
+    the type the serial step passes, so that both call the same compiled share).\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):

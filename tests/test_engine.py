@@ -16,7 +16,7 @@ from gymnasium.utils import seeding
 
 import rolling_disk_env as rd
 from rolling_disk_env import engine, jit, pcg64
-from rolling_disk_env.envs.batch import THREADS_FROM, columns, task_steps, thread_count
+from rolling_disk_env.envs.batch import THREADS_FROM, ThreadChoice, columns, task_steps, thread_count
 from rolling_disk_env.tasks import TASKS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -193,3 +193,22 @@ def test_a_child_process_steps_on_one_thread():
 
 def test_gym_make_env_is_the_engines_env():
     assert isinstance(gym.make(rd.ENV_ID).unwrapped, rd.RollingDiskEnv)
+
+
+def test_thread_choice_takes_the_faster_way_and_follows_a_change_of_load():
+    choice = ThreadChoice()
+
+    def run(steps: int, seconds: dict[bool, float]) -> list[bool]:
+        ways = []
+        for _ in range(steps):
+            threaded = choice.next()
+            choice.record(threaded, seconds[threaded])
+            ways.append(threaded)
+        return ways
+
+    assert run(4, {False: 1.0, True: 1.0}) == [False, True, False, True]  # each way twice, the first untimed
+    every = ThreadChoice.PROBE_EVERY
+    busy = run(4 * every, {False: 1e-3, True: 6e-3})  # another process on a core: the threads wait for it
+    assert busy.count(True) == 4  # the threads only in the probes, one every PROBE_EVERY steps
+    idle = run(4 * every, {False: 1e-3, True: 0.6e-3})  # idle cores: the threads win
+    assert idle[-2 * every :].count(False) == 2  # found at the first probe, then kept but for the probes

@@ -190,18 +190,19 @@ def step_euler_share(k, actions, batch, setup, out):
 
 @kernel
 def step_euler(actions, batch, setup, out):
-    """Steps a batch of one share (see :func:`step_euler_share`); returns the first disk with a non-finite action
-    (then nothing is stepped), or -1."""
+    """Steps a batch (see :func:`step_euler_share`), its shares one after the other on the calling thread;
+    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_euler_share(np.int64(0), actions, batch, setup, out)
+        for k in range(batch[0].shape[1]):
+            step_euler_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
 def step_euler_threads(actions, batch, setup, out):
-    """:func:`step_euler` for a batch of several shares, a share per thread (the share index is cast to the
-    type the serial step passes, so that both call the same compiled share)."""
+    """:func:`step_euler` with the shares on numba's threads, a share per thread (the share index is cast to
+    the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -295,18 +296,19 @@ def step_symplectic_euler_share(k, actions, batch, setup, out):
 
 @kernel
 def step_symplectic_euler(actions, batch, setup, out):
-    """Steps a batch of one share (see :func:`step_symplectic_euler_share`); returns the first disk with a non-finite action
-    (then nothing is stepped), or -1."""
+    """Steps a batch (see :func:`step_symplectic_euler_share`), its shares one after the other on the calling thread;
+    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_symplectic_euler_share(np.int64(0), actions, batch, setup, out)
+        for k in range(batch[0].shape[1]):
+            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
 def step_symplectic_euler_threads(actions, batch, setup, out):
-    """:func:`step_symplectic_euler` for a batch of several shares, a share per thread (the share index is cast to the
-    type the serial step passes, so that both call the same compiled share)."""
+    """:func:`step_symplectic_euler` with the shares on numba's threads, a share per thread (the share index is cast to
+    the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -400,18 +402,19 @@ def step_rk4_share(k, actions, batch, setup, out):
 
 @kernel
 def step_rk4(actions, batch, setup, out):
-    """Steps a batch of one share (see :func:`step_rk4_share`); returns the first disk with a non-finite action
-    (then nothing is stepped), or -1."""
+    """Steps a batch (see :func:`step_rk4_share`), its shares one after the other on the calling thread;
+    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_rk4_share(np.int64(0), actions, batch, setup, out)
+        for k in range(batch[0].shape[1]):
+            step_rk4_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
 def step_rk4_threads(actions, batch, setup, out):
-    """:func:`step_rk4` for a batch of several shares, a share per thread (the share index is cast to the
-    type the serial step passes, so that both call the same compiled share)."""
+    """:func:`step_rk4` with the shares on numba's threads, a share per thread (the share index is cast to
+    the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -489,18 +492,19 @@ def step_dopri5_share(k, actions, batch, setup, out):
 
 @kernel
 def step_dopri5(actions, batch, setup, out):
-    """Steps a batch of one share (see :func:`step_dopri5_share`); returns the first disk with a non-finite action
-    (then nothing is stepped), or -1."""
+    """Steps a batch (see :func:`step_dopri5_share`), its shares one after the other on the calling thread;
+    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        step_dopri5_share(np.int64(0), actions, batch, setup, out)
+        for k in range(batch[0].shape[1]):
+            step_dopri5_share(np.int64(k), actions, batch, setup, out)
     return bad
 
 
 @parallel_kernel
 def step_dopri5_threads(actions, batch, setup, out):
-    """:func:`step_dopri5` for a batch of several shares, a share per thread (the share index is cast to the
-    type the serial step passes, so that both call the same compiled share)."""
+    """:func:`step_dopri5` with the shares on numba's threads, a share per thread (the share index is cast to
+    the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):

@@ -9,10 +9,13 @@ the shares from the first, so the last share holds up to 16 (threads - 1) fewer 
 padding columns are idle disks at rest, stepped but never reported.
 
 Threads: a batch of at least :data:`THREADS_FROM` disks is split into one share per numba thread
-(``NUMBA_NUM_THREADS``, by default one per core), stepped at once (:func:`thread_count`); smaller batches, and every
-batch in a child process (``SubprocVecEnv``'s, whose siblings share the cores) or where ``NUMBA_NUM_THREADS=1``, have
-one share, stepped on the calling thread. The disks of a share are independent of the others, so the threads change
-no result. Resets run on the same threads, a share each.
+(``NUMBA_NUM_THREADS``, by default one per core: :func:`thread_count`); smaller batches, and every batch in a child
+process (``SubprocVecEnv``'s, whose siblings share the cores) or where ``NUMBA_NUM_THREADS=1``, have one share,
+stepped on the calling thread. A batch of several shares steps them at once on the threads, or one after the other on
+the calling thread, whichever its recent steps measured faster (:class:`ThreadChoice`): on idle cores the threads
+win, but where another process keeps a core busy, the thread on that core is preempted for whole time slices and the
+step waits for it. The disks of a share are independent of the others, so neither the shares nor the threads change
+a result. Resets run the way the steps do.
 """
 
 from __future__ import annotations
@@ -20,9 +23,11 @@ from __future__ import annotations
 import ctypes
 import functools
 import importlib
+import math
 import multiprocessing
 import os
 import platform
+import time
 from types import ModuleType
 
 import numba
@@ -51,6 +56,52 @@ def task_steps(task: Task) -> ModuleType:
     if steps.TASK_SOURCE != task.source_hash():
         raise RuntimeError(f"task {task.name!r} changed since its steps were generated: {regenerate}")
     return steps
+
+
+class ThreadChoice:
+    """Chooses, step by step, whether a batch of several shares steps them on numba's threads or one after the other
+    on the calling thread, from the times of its own recent steps.
+
+    The first four steps try each way twice (the first time untimed: it may compile). Then the faster way is used,
+    its time a moving average of its steps (weight :data:`WEIGHT` on the latest); every :data:`PROBE_EVERY`-th step
+    tries the other way, whose time that one step sets, so that a change of load (another process starting or ending
+    on the cores) is followed within a probe or two (a probe made fast by chance is corrected by the steps that
+    follow it).
+
+    Attributes:
+        threaded: whether the latest choice was the threads.
+    """
+
+    PROBE_EVERY = 32
+    """One step in this many times the way not in use."""
+    WEIGHT = 0.25
+    """Weight of a step's time in its way's moving average."""
+
+    def __init__(self):
+        self.threaded = True
+        self.steps = 0
+        self.seconds = [math.nan, math.nan]
+        """Moving averages of a step's time (s): on the calling thread, on the threads."""
+
+    def next(self) -> bool:
+        """Whether the next step runs on the threads."""
+        self.steps += 1
+        if self.steps <= 4:
+            return self.steps % 2 == 0
+        probe = self.steps % self.PROBE_EVERY == 0
+        return self.threaded != probe
+
+    def record(self, threaded: bool, seconds: float) -> None:
+        """Takes the time of a step that ran on the threads or not."""
+        if self.steps <= 2:
+            return
+        average, probe = self.seconds[threaded], threaded != self.threaded
+        if probe or math.isnan(average):
+            self.seconds[threaded] = seconds
+        else:
+            self.seconds[threaded] = average + self.WEIGHT * (seconds - average)
+        serial, parallel = self.seconds
+        self.threaded = math.isnan(serial) or parallel < serial
 
 
 def thread_count(num_envs: int) -> int:
@@ -165,11 +216,13 @@ class DiskBatch:
         steps = task_steps(task)
         self.num_envs = num_envs
         self.threads = thread_count(num_envs)
-        self._step = getattr(steps, f"step_{config.integrator}" + ("_threads" if self.threads > 1 else ""))
         self.share = columns(-(-num_envs // self.threads))
         width = self.threads * self.share
-        # Resets on threads take the share as their first argument.
-        self._reset = functools.partial(steps.reset_threads, self.share) if self.threads > 1 else steps.reset
+        # The serial and the threaded kernels (resets on threads take the share as their first argument).
+        self._steps = (getattr(steps, f"step_{config.integrator}"), getattr(steps, f"step_{config.integrator}_threads"))
+        self._resets = (steps.reset, functools.partial(steps.reset_threads, self.share))
+        self.choice = ThreadChoice() if self.threads > 1 else None
+        """How a batch of several shares steps them (None: one share, on the calling thread)."""
         if num_envs >= HEAP_FROM:
             keep_freed_memory()
         self.terms = len(task.reward_weights)
@@ -252,7 +305,8 @@ class DiskBatch:
         """
         rngs = self._no_rngs if rngs is None else rngs
         states = self.no_state if states is None else states
-        self._reset(mask, rngs, self.uniforms, states, self._whole, self.setup, out.blocks)
+        reset = self._resets[self.choice is not None and self.choice.threaded]
+        reset(mask, rngs, self.uniforms, states, self._whole, self.setup, out.blocks)
 
     def step(self, actions: np.ndarray, out: Outputs) -> int:
         """Steps every disk under normalized ``actions`` (N, A), writing the outputs into ``out``.
@@ -263,4 +317,10 @@ class DiskBatch:
         if self._growing and self.steps[: self.num_envs].max() + 1 >= self.error_sums.shape[1]:
             self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
             self._bundle()
-        return self._step(actions, self._shares, self.setup, out.shares)
+        if self.choice is None:
+            return self._steps[0](actions, self._shares, self.setup, out.shares)
+        threaded = self.choice.next()
+        start = time.perf_counter()
+        bad = self._steps[threaded](actions, self._shares, self.setup, out.shares)
+        self.choice.record(threaded, time.perf_counter() - start)
+        return bad
