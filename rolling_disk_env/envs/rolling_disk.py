@@ -11,7 +11,7 @@ import numpy as np
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import DiskParams
 from rolling_disk_env.envs.batch import DiskBatch
-from rolling_disk_env.envs.config import EnvConfig, action_error
+from rolling_disk_env.envs.config import EnvConfig, checked_actions
 
 TRACK_LENGTH = 5000
 """Points of the centre's track kept for rendering."""
@@ -187,7 +187,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._track = None if self.render_mode is None else deque([tuple(batch.states[:2, 0])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
-        return self._out.observations[0].copy(), self._info(self._out.info[:, 0].tolist(), False, stepped=False)
+        return self._out.observations[0].copy(), self._info(self._out.info[:, 0].tolist(), False)
 
     def step(self, action):
         if not self._started:
@@ -198,7 +198,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"action must be finite numbers, got {action!r}")
         values = out.info[:, 0].tolist()
         terminated = bool(out.flags[engine.TERMINATED, 0])
-        info = self._info(values, terminated, stepped=True)
+        info = self._info(values, terminated)
         if self._track is not None:
             self._track.append(tuple(self._batch.states[:2, 0]))
         if self.render_mode == "human":
@@ -209,13 +209,10 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         """The action as the engine takes it, a row of float32 (finiteness is checked by the engine)."""
         if type(action) is np.ndarray and action.dtype == np.float32 and action.shape == self.action_space.shape:
             return action.reshape(1, -1)
-        error = action_error(action, self.action_space.shape)
-        if error:
-            raise ValueError(error)
-        return np.asarray(action, dtype=np.float32).reshape(1, -1)
+        return checked_actions(action, self.action_space.shape).reshape(1, -1)
 
-    def _info(self, values: list[float], terminated: bool, stepped: bool) -> dict:
-        """The info from the disk's column of the info block, as a list."""
+    def _info(self, values: list[float], terminated: bool) -> dict:
+        """The info from the disk's column of the info block, as a list: the same keys at every step and reset."""
         info = {
             "state": np.array(values[:8]),
             "energy": values[engine.ENERGY],
@@ -223,11 +220,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             "normal_force": values[engine.NORMAL_FORCE],
             "required_friction": values[engine.REQUIRED_FRICTION],
             "is_success": bool(self._out.flags[engine.SUCCESS, 0]),
+            "termination": int(values[engine.STATUS]) if terminated else 0,
         }
-        if stepped:
-            info.update(zip(self._term_keys, values[engine.TERMS :]))
-        if terminated:
-            info["termination"] = engine.TERMINATIONS[int(values[engine.STATUS])]
+        info.update(zip(self._term_keys, values[engine.TERMS :]))
         return info
 
     def render(self):
