@@ -33,8 +33,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Action Space
 
     ``Box(-1, 1, (n,), float32)``, one component per actuator in the order ``("spin", "steer")`` (those enabled),
-    scaled to ``max_spin_torque`` and ``max_steer_torque`` (N m). Finite actions outside [-1, 1] are clipped; NaN,
-    inf or a wrong shape raise ``ValueError``. With ``actuators=()`` the space is empty and the disk is passive.
+    scaled to ``max_spin_torque`` and ``max_steer_torque`` (N m). Finite actions outside [-1, 1] are clipped (any
+    finite number, 1e300 too); NaN, inf, a wrong shape or values that are not ints or floats (bools, complex
+    numbers, strings) raise ``ValueError``. With ``actuators=()`` the space is empty and the disk is passive.
 
     ## Observation Space
 
@@ -97,23 +98,26 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Episode End
 
-    Termination, with the reason in ``info["termination"]``:
+    Termination, with the reason in ``info["termination"]``, a code of ``rolling_disk_env.Termination`` (an int;
+    ``Termination.NONE``, 0, at every step that does not terminate, truncated ones included):
 
     | reason | when |
     |--------|------|
-    | `"fallen"` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle`` and ``goto``) |
-    | `"reached"` | ``goto``: the centre's ground projection came within 0.25 m of the target (a success) |
-    | `"lifted_off"` | the normal force N vanished: rolling on the plane is over (checked at every step) |
-    | `"slipped"` | with ``friction_coefficient`` mu set: the contact needs more, \\|lambda\\| / N > mu |
-    | `"out_of_domain"` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
-    | `"substep_limit"` | ``"dopri5"`` did not finish the period in 10000 steps |
+    | `FALLEN` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle`` and ``goto``) |
+    | `REACHED` | ``goto``: the centre's ground projection came within 0.25 m of the target (a success) |
+    | `LIFTED_OFF` | the normal force N vanished: rolling on the plane is over (checked at every step) |
+    | `SLIPPED` | with ``friction_coefficient`` mu set: the contact needs more, \\|lambda\\| / N > mu |
+    | `OUT_OF_DOMAIN` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
+    | `SUBSTEP_LIMIT` | ``"dopri5"`` did not finish the period in 10000 steps |
 
     The contact is checked at the end of each control period. Truncation: after ``max_episode_steps`` (500 steps of
     0.02 s, 10 s), by the ``TimeLimit`` wrapper of ``gymnasium.make``.
 
-    ``info`` holds ``"state"`` (the 8-vector, float64), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2: the
-    horizontal ground reaction in N), ``"normal_force"`` (N, the vertical one), ``"required_friction"`` (|lambda| /
-    N, the friction coefficient a real contact needs to roll so), the ``"reward_<term>"`` keys (after a step) and
+    ``info`` holds the same keys at every step and at reset, each a number or an array of numbers, as Gymnasium's
+    MuJoCo envs give them (so that Tianshou's buffers and TorchRL's info reader stack them): ``"state"`` (the
+    8-vector, float64), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2: the horizontal ground reaction in
+    N), ``"normal_force"`` (N, the vertical one), ``"required_friction"`` (|lambda| / N, the friction coefficient a
+    real contact needs to roll so), the ``"reward_<term>"`` keys (0 at reset), ``"termination"`` and
     ``"is_success"``: whether the episode counts as a success *if it ended at this step*, so True from the first
     step for a disk that has not fallen (``upright``: not fallen; ``circle``: not fallen and a mean radial error over
     the last half of the episode of at most 0.25 m), while on ``goto`` it is False until the step that reaches the
@@ -148,7 +152,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Version History
 
     * v0: initial version; the compiled engine (numba) computes the same transitions as before to within the
-      rounding of its sine and cosine; flat ``reward_<term>`` info keys, the contact limits and ``"dopri5"`` added.
+      rounding of its sine and cosine; flat ``reward_<term>`` info keys, the contact limits and ``"dopri5"`` added;
+      every info key at every step, ``info["termination"]`` a ``Termination`` code (it was a name, on terminal steps
+      only).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
