@@ -117,7 +117,10 @@ def test_tianshou_ppo_trains_an_epoch_on_every_task(task):
         loc, scale = loc_scale
         return torch.distributions.Independent(torch.distributions.Normal(loc, scale), 1)
 
-    policy = ProbabilisticActorPolicy(actor=actor, dist_fn=normal, action_space=space.action_space)
+    # The action space is [-1, 1] already: clipped, not rescaled.
+    policy = ProbabilisticActorPolicy(
+        actor=actor, dist_fn=normal, action_space=space.action_space, action_scaling=False
+    )
     algorithm = PPO(policy=policy, critic=critic, optim=AdamOptimizerFactory(lr=3e-4))
     collector = Collector[CollectStats](algorithm, envs, VectorReplayBuffer(2048, len(envs)), exploration_noise=True)
     result = algorithm.run_training(
