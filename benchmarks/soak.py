@@ -45,7 +45,7 @@ def soak_single(task: str, steps: int) -> list[object]:
         if not (np.all(np.isfinite(observation)) and np.isfinite(reward) and np.all(np.isfinite(info["state"]))):
             bad += 1
         if terminated:
-            reasons[info["termination"]] += 1
+            reasons[rd.Termination(info["termination"]).name.lower()] += 1
         if terminated or truncated:
             episodes += 1
             env.reset()
@@ -68,8 +68,7 @@ def soak_vector(task: str, steps: int, num_envs: int) -> list[object]:
         finite = np.isfinite(observations).all(axis=1) & np.isfinite(rewards) & np.isfinite(infos["state"]).all(axis=1)
         bad += int(np.sum(~finite))
         episodes += int(np.sum(terminated | truncated))
-        if "termination" in infos:
-            reasons.update(infos["termination"][infos["_termination"]].tolist())
+        reasons.update(rd.Termination(code).name.lower() for code in infos["termination"][terminated].tolist())
         if i in (0, calls // 2):
             memory.append(resident_mib())
     memory.append(resident_mib())

@@ -4,8 +4,11 @@ Importing the package registers ``"RollingDisk-v0"`` and one id per task (:data:
 (idempotently, so that ``SubprocVecEnv`` children, which import it again, find the ids).
 
 It imports neither SymPy nor numba nor torch: the envs (and with them the compiled engine) load on first use, through
-``gymnasium.make`` or the attributes ``RollingDiskEnv`` and ``RollingDiskVectorEnv``.
+``gymnasium.make`` or the attributes ``RollingDiskEnv``, ``RollingDiskVectorEnv`` and ``Termination``, and the
+Stable-Baselines3 adapter (with SB3 and torch, from the ``[train]`` extra) on first use of the attribute ``sb3``.
 """
+
+import importlib
 
 from gymnasium.envs.registration import register, registry
 
@@ -67,11 +70,14 @@ _register()
 
 
 def __getattr__(name: str):
-    """The envs, imported on first use (they compile the engine's kernels)."""
-    if name in ("RollingDiskEnv", "RollingDiskVectorEnv"):
+    """The envs and ``info["termination"]``'s codes, imported on first use (with numba, which compiles the engine's
+    kernels), and the submodule ``sb3`` (it imports Stable-Baselines3 and torch)."""
+    if name in ("RollingDiskEnv", "RollingDiskVectorEnv", "Termination"):
         from rolling_disk_env import envs
 
         return getattr(envs, name)
+    if name == "sb3":
+        return importlib.import_module(f"{__name__}.sb3")  # not `from . import sb3`: that asks this function again
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -89,6 +95,7 @@ __all__ = [
     "RollingContactError",
     "RollingDiskEnv",
     "RollingDiskVectorEnv",
+    "Termination",
     "contact_force",
     "energy",
     "friction_force",

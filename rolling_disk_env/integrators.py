@@ -260,7 +260,12 @@ def _simulate_engine(system: Model, method: int, rows, times, torque_at, disks, 
 
 
 def _simulate_dop853(system: Model, rows, times, torque_at, disks, rtol, atol, friction) -> np.ndarray:
-    from scipy.integrate import solve_ivp
+    try:
+        from scipy.integrate import solve_ivp
+    except ImportError as error:
+        raise ImportError(
+            f'method "dop853" needs scipy: pip install scipy, or "rolling-disk-env[paper]" ({error})'
+        ) from error
 
     from rolling_disk_env import engine
 

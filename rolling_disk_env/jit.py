@@ -2,9 +2,11 @@
 :data:`parallel_kernel`.
 
 Kernels are plain Python functions of floats and numpy arrays, compiled by numba on first call and cached on disk
-(``cache=True``): in ``__pycache__`` next to the module, or, where that is not writable (a read-only site-packages),
-in numba's user-wide cache directory (``~/.cache/numba`` or ``NUMBA_CACHE_DIR``). ``NUMBA_DISABLE_JIT=1`` runs every
-kernel as plain Python (slow: for debugging, and for the tests that compare compiled and interpreted results).
+(``cache=True``): in ``NUMBA_CACHE_DIR`` if it is set, else in ``__pycache__`` next to the module, or, where that is
+not writable (a read-only site-packages), in numba's user-wide cache directory (``~/.cache/numba``). Where none of
+them is writable (a read-only install used by a user without a writable home), the kernels compile in memory, again
+in every process, after one line of warning (:data:`CACHE_DIRECTORY` is then None). ``NUMBA_DISABLE_JIT=1`` runs
+every kernel as plain Python (slow: for debugging, and for the tests that compare compiled and interpreted results).
 
 Numba judges a cached kernel fresh by the source of the file that defines it, but a kernel also holds the code of
 the kernels it calls from other files (a task's step calls the generated model, the engine, the task module) and the
@@ -27,6 +29,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import logging
 from pathlib import Path
 
 import llvmlite.binding
@@ -69,13 +72,37 @@ class PackageUserWideCacheLocator(_PackageStamp, caching.UserWideCacheLocator):
     """In numba's user-wide cache directory, where the package's folder is read-only."""
 
 
+LOCATORS = (PackageUserProvidedCacheLocator, PackageInTreeCacheLocator, PackageUserWideCacheLocator)
+"""Where the package's kernels are cached: the first of these whose directory is writable."""
+
+
 def _use_package_stamps() -> None:
     locators = caching.CacheImpl._locator_classes  # numba's cache locators, tried in order
-    ours = [PackageUserProvidedCacheLocator, PackageInTreeCacheLocator, PackageUserWideCacheLocator]
-    locators[:] = ours + [locator for locator in locators if locator not in ours]
+    locators[:] = [*LOCATORS, *(locator for locator in locators if locator not in LOCATORS)]
 
 
 _use_package_stamps()
+
+
+def _cache_directory() -> str | None:
+    """The directory the package's kernels are cached in (created if missing), or None where none is writable."""
+    for locator in LOCATORS:
+        found = locator.from_function(_cache_directory, __file__)  # None unless it can write there
+        if found is not None:
+            return found.get_cache_path()
+    return None
+
+
+CACHE_DIRECTORY = _cache_directory()
+"""Where this process caches the kernels of this module's folder (of the others: alike, beside them or in a subfolder
+named after them); None: nowhere writable, the kernels compile in memory."""
+if CACHE_DIRECTORY is None:
+    # One line (logging, as JAX reports its CPU fallback), instead of numba's "no locator available" error.
+    logging.getLogger(__name__).warning(
+        "rolling_disk_env: no writable directory to cache compiled kernels in (NUMBA_CACHE_DIR, the package's "
+        "__pycache__, ~/.cache/numba): they compile in memory, again in every process; set NUMBA_CACHE_DIR to a "
+        "writable directory to keep them"
+    )
 
 MEMORY_CHECKS = 4096
 """Runtime overlap checks LLVM may emit before a vectorized loop (LLVM's default: 128)."""
@@ -87,12 +114,12 @@ def _allow_memory_checks() -> None:
 
 _allow_memory_checks()
 
-kernel = numba.njit(cache=True, error_model="numpy")
-"""Compiles a function of one disk, or a loop over a batch of disks, cached."""
-inline_kernel = numba.njit(cache=True, error_model="numpy", inline="always")
+kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy")
+"""Compiles a function of one disk, or a loop over a batch of disks, cached (where a directory is writable)."""
+inline_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", inline="always")
 """Compiles a function that numba inlines into each caller: a per-disk body called in a loop with many arrays, whose
 arguments a real call would pass one by one for every disk."""
-parallel_kernel = numba.njit(cache=True, error_model="numpy", parallel=True)
+parallel_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", parallel=True)
 """Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""
 prange = numba.prange
 """``range`` whose iterations a :data:`parallel_kernel` spreads over threads."""

@@ -15,7 +15,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.wrappers.vector import DictInfoToList
-from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+
+try:
+    from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+except ImportError as error:
+    raise ImportError(
+        f'rolling_disk_env.sb3 needs Stable-Baselines3 and torch: pip install "rolling-disk-env[train]" ({error})'
+    ) from error
 
 from rolling_disk_env.envs import RollingDiskVectorEnv
 

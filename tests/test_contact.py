@@ -56,7 +56,7 @@ def test_the_env_terminates_with_slipped_exactly_when_friction_falls_short(facto
         if terminated:
             break
     assert terminated == slips
-    assert info.get("termination") == ("slipped" if slips else None)
+    assert info["termination"] == (rd.Termination.SLIPPED if slips else rd.Termination.NONE)
     assert info["required_friction"] == pytest.approx(need, rel=1e-6)
 
 
@@ -79,7 +79,7 @@ def test_a_disk_whose_normal_force_vanishes_lifts_off():
     env = gym.make("RollingDisk-v0")  # no friction coefficient: lift-off ends the episode all the same
     env.reset(seed=0, options={"state": state})
     _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
-    assert terminated and info["termination"] == "lifted_off"
+    assert terminated and info["termination"] == rd.Termination.LIFTED_OFF
     with pytest.raises(rd.RollingContactError, match="lifted off") as error:
         rd.simulate(state, 1.0, 0.01)
     assert error.value.reason == "lifted_off" and error.value.normal_force < 0

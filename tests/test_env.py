@@ -140,6 +140,10 @@ def test_torques_follow_the_actions_and_are_clipped():
         ([0.0], "shape"),
         ("left", "shape"),
         (np.array(["a", "b"]), "finite numbers"),
+        # Not cast silently: a complex action would lose its imaginary part, a bool is no torque.
+        (np.array([0.5 + 1j, 0.0]), "finite numbers .*got a complex128 array"),
+        (np.array([True, False]), "finite numbers .*got a bool array"),
+        ([True, False], "got a bool array"),
     ],
 )
 def test_bad_actions_raise_value_errors(action, message):
@@ -147,6 +151,48 @@ def test_bad_actions_raise_value_errors(action, message):
     env.reset(seed=0)
     with pytest.raises(ValueError, match=message):
         env.step(action)
+
+
+def test_finite_actions_beyond_float32_are_clipped_like_any_other():
+    # 1e300 is finite (float64) but inf as float32: it is clipped to the torque limit, as 3.0 is.
+    far, near = make(actuators=("steer",)).unwrapped, make(actuators=("steer",)).unwrapped
+    for env, action in ((far, [-1e300]), (near, np.array([-3.0], dtype=np.float32))):
+        env.reset(seed=0, options={"state": [0, 0, 0, 0, 0, 0, 0, 0]})
+        env.step(action)
+    # Pure steer from rest, upright: ddpsi = 4 tau / (m r^2) with tau = -10 N m, so dpsi = -8 dt.
+    assert far._batch.states[7, 0] == near._batch.states[7, 0] == pytest.approx(-4 * 10.0 / 5.0 * 0.02)
+
+
+@pytest.mark.parametrize("task", sorted(TASKS))
+def test_info_has_the_same_keys_at_every_step(task):
+    # As Gymnasium's MuJoCo envs: wrappers that stack infos over steps and envs (Tianshou's, TorchRL's) need every
+    # key at every step, each a number (TorchRL's info reader takes every key of a vector env as a tensor).
+    # "termination" says why an episode terminated, NONE (0) while it has not.
+    env = gym.make(rd.TASK_IDS[task], max_episode_steps=40)
+    _, info = env.reset(seed=0)
+    kinds = {key: type(value) for key, value in info.items()}
+    assert (
+        type(info["termination"]) is int
+        and info["termination"] == rd.Termination.NONE
+        and all(info[f"reward_{term}"] == 0.0 for term in env.unwrapped.task.reward_weights)
+    )
+    fall_lean = env.unwrapped.task.fall_lean
+    endings = set()
+    for episode in range(6):
+        _, info = env.reset(seed=episode)
+        assert {key: type(value) for key, value in info.items()} == kinds
+        terminated = truncated = False
+        while not (terminated or truncated):
+            # Every other episode passive: the disk falls (upright, goto) or drifts; full torques: it falls sooner.
+            action = np.zeros(2, dtype=np.float32) if episode % 2 else np.ones(2, dtype=np.float32)
+            _, _, terminated, truncated, info = env.step(action)
+            assert {key: type(value) for key, value in info.items()} == kinds
+            # The disk's own lean says whether it fell (full torques may end it otherwise: contact lift-off).
+            if abs(info["state"][3]) > fall_lean:
+                assert terminated and info["termination"] == rd.Termination.FALLEN
+            assert (info["termination"] != rd.Termination.NONE) == terminated
+        endings.add("terminated" if terminated else "truncated")
+    assert endings == {"terminated", "truncated"}
 
 
 @pytest.mark.parametrize(
@@ -212,7 +258,7 @@ def test_a_diverging_integrator_terminates_cleanly_with_finite_output():
         assert np.all(np.isfinite(observation)) and np.isfinite(reward) and np.all(np.isfinite(info["state"]))
         if terminated:
             break
-    assert terminated and info["termination"] in ("fallen", "out_of_domain")
+    assert terminated and info["termination"] in (rd.Termination.FALLEN, rd.Termination.OUT_OF_DOMAIN)
 
 
 def test_pickle_round_trip_keeps_the_episode():

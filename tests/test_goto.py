@@ -75,7 +75,7 @@ def test_a_centre_placed_at_the_target_ends_the_episode_as_a_success(offset):
     env.reset(seed=3, options={"state": [x + offset[0], y + offset[1], 0.0, 0.0, 0.5, 0.0, 0.0, 0.0]})
     _, reward, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
     assert terminated and not truncated
-    assert info["termination"] == "reached" and info["is_success"]
+    assert info["termination"] == rd.Termination.REACHED and info["is_success"]
     assert info["reward_reached"] == 1.0 and info["reward_fallen"] == 0.0
     assert reward >= 100.0 - 1.0  # the bonus, at most one unit of progress and lean lost
 
@@ -95,7 +95,7 @@ def test_a_falling_or_lifting_disk_fails_even_at_the_target(theta, dtheta, reaso
     env, (x, y) = started(seed=3)
     env.reset(seed=3, options={"state": [x, y, 0.0, theta, 0.0, 0.0, dtheta, 0.0]})
     _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
-    assert terminated and info["termination"] == reason and not info["is_success"]
+    assert terminated and rd.Termination(info["termination"]).name == reason.upper() and not info["is_success"]
     assert info["reward_fallen"] == -1.0 and info["reward_reached"] == 0.0
 
 
@@ -104,7 +104,7 @@ def test_a_disk_that_falls_far_from_the_target_fails():
     terminated = truncated = False
     while not (terminated or truncated):
         _, _, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
-    assert terminated and info["termination"] == "fallen" and not info["is_success"]
+    assert terminated and info["termination"] == rd.Termination.FALLEN and not info["is_success"]
 
 
 def test_reward_terms_are_bounded_and_weighted_under_random_actions():
@@ -170,7 +170,7 @@ def test_single_and_vector_envs_agree_to_the_last_bit_through_reached_episodes()
             assert (rewards[i], terminated[i], truncated[i]) == (reward, term, trunc)
             np.testing.assert_array_equal(infos["state"][i], info["state"])
             assert infos["is_success"][i] == info["is_success"]
-            reached += term and info["termination"] == "reached"
+            reached += term and info["termination"] == rd.Termination.REACHED
         done = terminated | truncated
     assert reached >= num_envs  # every env reached a target, and the autoreset started another episode
 

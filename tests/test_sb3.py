@@ -1,6 +1,9 @@
 """Stable-Baselines3 on the env: the adapter over the native vector env against DummyVecEnv, and SubprocVecEnv children
 started by forkserver and spawn."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from stable_baselines3.common.env_util import make_vec_env
@@ -77,3 +80,13 @@ def test_subproc_vec_env_children_run_the_engine(start_method):
 def test_native_vec_env_refuses_another_autoreset_mode():
     with pytest.raises(ValueError, match="SAME_STEP"):
         sb3.NativeVecEnv(rd.RollingDiskVectorEnv(num_envs=2))
+
+
+def test_the_sb3_submodule_is_reachable_after_importing_the_package_and_loads_on_first_use():
+    code = (
+        "import sys, rolling_disk_env\n"
+        "print('stable_baselines3' in sys.modules, 'torch' in sys.modules)\n"
+        "print(rolling_disk_env.sb3.make_vec_env.__module__, 'stable_baselines3' in sys.modules)\n"
+    )
+    lines = subprocess.check_output([sys.executable, "-c", code], text=True).splitlines()
+    assert lines == ["False False", "rolling_disk_env.sb3 True"]

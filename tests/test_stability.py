@@ -47,5 +47,5 @@ def test_the_env_terminates_cleanly_next_to_the_singularity():
         assert np.all(np.isfinite(observation)) and np.isfinite(reward)
         if terminated:
             break
-    assert terminated and info["termination"] in ("fallen", "out_of_domain")
+    assert terminated and info["termination"] in (rd.Termination.FALLEN, rd.Termination.OUT_OF_DOMAIN)
     assert abs(info["state"][3]) < rd.LEAN_LIMIT

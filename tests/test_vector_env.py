@@ -173,6 +173,8 @@ def test_step_before_reset_raises_reset_needed():
         (np.array([[0, 0], [0, np.inf]]), "finite"),
         (np.zeros((2, 3), dtype=np.float32), "shape"),
         (np.zeros(2, dtype=np.float32), "shape"),
+        (np.ones((2, 2), dtype=bool), "actions must be finite numbers .*bool"),
+        (np.ones((2, 2), dtype=np.complex64), "actions must be finite numbers .*complex64"),
     ],
 )
 def test_vector_bad_actions_raise_and_step_nothing(actions, message):
@@ -190,3 +192,38 @@ def test_vector_bad_actions_raise_and_step_nothing(actions, message):
 def test_vector_bad_arguments_raise(kwargs, message):
     with pytest.raises(ValueError, match=message):
         rd.RollingDiskVectorEnv(**{"num_envs": 2, **kwargs})
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda mode: mode.value)
+def test_every_info_key_is_there_for_every_sub_environment_at_every_step(mode):
+    num_envs = 4
+    vector = _native(num_envs, mode, task="upright")
+    _, infos = vector.reset(seed=0)
+    keys = set(infos)
+    assert {f"reward_{term}" for term in vector.unwrapped.task.reward_weights} | {"termination"} <= keys
+
+    def check(infos, terminated, reported=None):
+        reported = np.ones(num_envs, dtype=bool) if reported is None else reported
+        assert set(infos) - {"final_obs", "_final_obs", "final_info", "_final_info"} == keys
+        for key in keys:
+            if key.startswith("_"):  # every sub-environment, or those a partial reset reports, as SyncVectorEnv
+                np.testing.assert_array_equal(infos[key], reported, err_msg=key)
+        # A passive upright disk falls (its lean beyond 0.5 rad): that is the only termination here. SAME_STEP
+        # reports it in the final info; the info beside it is the next episode's first.
+        expected = np.where(terminated, rd.Termination.FALLEN, rd.Termination.NONE)
+        if mode == AutoresetMode.SAME_STEP and terminated.any():
+            np.testing.assert_array_equal(infos["final_info"]["termination"], expected)
+            expected = np.zeros(num_envs, dtype=np.int64)
+        assert infos["termination"].dtype == np.int64
+        np.testing.assert_array_equal(infos["termination"], expected)
+
+    check(infos, np.zeros(num_envs, dtype=bool))
+    terminations = 0
+    for _ in range(3 * LIMIT):
+        _, _, terminated, truncated, infos = vector.step(np.zeros((num_envs, 2), dtype=np.float32))
+        check(infos, terminated)
+        terminations += terminated.sum()
+        if mode == AutoresetMode.DISABLED and (terminated | truncated).any():
+            _, infos = vector.reset(options={"reset_mask": terminated | truncated})
+            check(infos, np.zeros(num_envs, dtype=bool), terminated | truncated)
+    assert terminations > 0

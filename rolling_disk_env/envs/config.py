@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import enum
 import inspect
 import itertools
 import math
@@ -17,6 +18,15 @@ from rolling_disk_env.tasks import TASKS, Task
 ACTUATORS = ("spin", "steer")
 """Torque inputs, in the order of the dynamics' ``(tau_spin, tau_steer)``."""
 RESET_OPTIONS = frozenset({"state"})
+Termination = enum.IntEnum(
+    "Termination", [("NONE", 0), *((name.upper(), code) for code, name in enumerate(engine.TERMINATIONS) if code)]
+)
+Termination.__doc__ = """``info["termination"]``, an int at every step: ``NONE`` (0) while the episode has not
+terminated (it runs on, or was truncated), else why it terminated: ``FALLEN``, ``REACHED``, ``LIFTED_OFF``,
+``SLIPPED``, ``OUT_OF_DOMAIN`` or ``SUBSTEP_LIMIT`` (the engine's termination codes; ``Termination(code).name``).
+
+A number, not a name, so that every wrapper that batches infos stacks it: Gymnasium's vector envs into an int array,
+Tianshou's buffers, and TorchRL's info reader, which takes every info key of a vector env as a tensor."""
 
 
 def task_option_names(task_class: type[Task]) -> list[str]:
@@ -66,10 +76,13 @@ class EnvConfig:
         **unknown,
     ) -> EnvConfig:
         """Checks every argument and raises ``ValueError`` naming the first bad one (``TypeError`` for an unknown
-        keyword argument, listing the valid ones)."""
+        keyword argument, worded as Python words it, ``got an unexpected keyword argument 'NAME'``, which wrappers
+        such as TorchRL's ``GymEnv`` probe for before retrying without an optional argument, and listing the valid
+        ones)."""
         if unknown:
             valid = sorted([*(inspect.signature(cls.from_kwargs).parameters.keys() - {"unknown"}), "render_mode"])
-            raise TypeError(f"unknown keyword argument(s) {sorted(unknown)} of RollingDisk-v0; valid: {valid}")
+            names = " and ".join(f"an unexpected keyword argument {name!r}" for name in sorted(unknown))
+            raise TypeError(f"RollingDisk-v0 got {names}; valid keyword arguments: {valid}")
         if isinstance(task, Task):
             if task_options:
                 raise ValueError("task_options apply to a task given by name, not to a Task instance")
@@ -211,11 +224,17 @@ class EnvConfig:
         return state
 
 
-def action_error(action, expected: tuple[int, ...]) -> str | None:
-    """Why ``action`` is not a valid action of shape ``expected``, or None."""
-    array = np.asarray(action)
-    if array.shape != expected:
-        return f"action must have shape {expected}, got {array.shape}"
-    if not np.issubdtype(array.dtype, np.number) or not np.all(np.isfinite(array)):
-        return f"action must be finite numbers, got {array!r}"
-    return None
+def checked_actions(actions, shape: tuple[int, ...], name: str = "action") -> np.ndarray:
+    """``actions`` as the engine takes them: float32, of ``shape``, finite, clipped to [-1, 1].
+
+    Raises ``ValueError``, naming ``name``, for a wrong shape, for values that are not real numbers (ints or floats:
+    bools, complex numbers and strings are refused, not cast) and for NaN or inf. Finite values beyond float32's
+    range are clipped like any other out-of-range value (before the cast, which would make them inf)."""
+    array = np.asarray(actions)
+    if array.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {array.shape}")
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be finite numbers (ints or floats), got a {array.dtype} array: {array!r}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite numbers, got {array!r}")
+    return np.clip(array, -1.0, 1.0).astype(np.float32)

@@ -11,7 +11,7 @@ import numpy as np
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import DiskParams
 from rolling_disk_env.envs.batch import DiskBatch
-from rolling_disk_env.envs.config import EnvConfig, action_error
+from rolling_disk_env.envs.config import EnvConfig, checked_actions
 
 TRACK_LENGTH = 5000
 """Points of the centre's track kept for rendering."""
@@ -33,8 +33,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Action Space
 
     ``Box(-1, 1, (n,), float32)``, one component per actuator in the order ``("spin", "steer")`` (those enabled),
-    scaled to ``max_spin_torque`` and ``max_steer_torque`` (N m). Finite actions outside [-1, 1] are clipped; NaN,
-    inf or a wrong shape raise ``ValueError``. With ``actuators=()`` the space is empty and the disk is passive.
+    scaled to ``max_spin_torque`` and ``max_steer_torque`` (N m). Finite actions outside [-1, 1] are clipped (any
+    finite number, 1e300 too); NaN, inf, a wrong shape or values that are not ints or floats (bools, complex
+    numbers, strings) raise ``ValueError``. With ``actuators=()`` the space is empty and the disk is passive.
 
     ## Observation Space
 
@@ -97,23 +98,26 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Episode End
 
-    Termination, with the reason in ``info["termination"]``:
+    Termination, with the reason in ``info["termination"]``, a code of ``rolling_disk_env.Termination`` (an int;
+    ``Termination.NONE``, 0, at every step that does not terminate, truncated ones included):
 
     | reason | when |
     |--------|------|
-    | `"fallen"` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle`` and ``goto``) |
-    | `"reached"` | ``goto``: the centre's ground projection came within 0.25 m of the target (a success) |
-    | `"lifted_off"` | the normal force N vanished: rolling on the plane is over (checked at every step) |
-    | `"slipped"` | with ``friction_coefficient`` mu set: the contact needs more, \\|lambda\\| / N > mu |
-    | `"out_of_domain"` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
-    | `"substep_limit"` | ``"dopri5"`` did not finish the period in 10000 steps |
+    | `FALLEN` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle`` and ``goto``) |
+    | `REACHED` | ``goto``: the centre's ground projection came within 0.25 m of the target (a success) |
+    | `LIFTED_OFF` | the normal force N vanished: rolling on the plane is over (checked at every step) |
+    | `SLIPPED` | with ``friction_coefficient`` mu set: the contact needs more, \\|lambda\\| / N > mu |
+    | `OUT_OF_DOMAIN` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
+    | `SUBSTEP_LIMIT` | ``"dopri5"`` did not finish the period in 10000 steps |
 
     The contact is checked at the end of each control period. Truncation: after ``max_episode_steps`` (500 steps of
     0.02 s, 10 s), by the ``TimeLimit`` wrapper of ``gymnasium.make``.
 
-    ``info`` holds ``"state"`` (the 8-vector, float64), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2: the
-    horizontal ground reaction in N), ``"normal_force"`` (N, the vertical one), ``"required_friction"`` (|lambda| /
-    N, the friction coefficient a real contact needs to roll so), the ``"reward_<term>"`` keys (after a step) and
+    ``info`` holds the same keys at every step and at reset, each a number or an array of numbers, as Gymnasium's
+    MuJoCo envs give them (so that Tianshou's buffers and TorchRL's info reader stack them): ``"state"`` (the
+    8-vector, float64), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2: the horizontal ground reaction in
+    N), ``"normal_force"`` (N, the vertical one), ``"required_friction"`` (|lambda| / N, the friction coefficient a
+    real contact needs to roll so), the ``"reward_<term>"`` keys (0 at reset), ``"termination"`` and
     ``"is_success"``: whether the episode counts as a success *if it ended at this step*, so True from the first
     step for a disk that has not fallen (``upright``: not fallen; ``circle``: not fallen and a mean radial error over
     the last half of the episode of at most 0.25 m), while on ``goto`` it is False until the step that reaches the
@@ -148,7 +152,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Version History
 
     * v0: initial version; the compiled engine (numba) computes the same transitions as before to within the
-      rounding of its sine and cosine; flat ``reward_<term>`` info keys, the contact limits and ``"dopri5"`` added.
+      rounding of its sine and cosine; flat ``reward_<term>`` info keys, the contact limits and ``"dopri5"`` added;
+      every info key at every step, ``info["termination"]`` a ``Termination`` code (it was a name, on terminal steps
+      only).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
@@ -187,7 +193,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._track = None if self.render_mode is None else deque([tuple(batch.states[:2, 0])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
-        return self._out.observations[0].copy(), self._info(self._out.info[:, 0].tolist(), False, stepped=False)
+        return self._out.observations[0].copy(), self._info(self._out.info[:, 0].tolist(), False)
 
     def step(self, action):
         if not self._started:
@@ -198,7 +204,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"action must be finite numbers, got {action!r}")
         values = out.info[:, 0].tolist()
         terminated = bool(out.flags[engine.TERMINATED, 0])
-        info = self._info(values, terminated, stepped=True)
+        info = self._info(values, terminated)
         if self._track is not None:
             self._track.append(tuple(self._batch.states[:2, 0]))
         if self.render_mode == "human":
@@ -209,13 +215,10 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         """The action as the engine takes it, a row of float32 (finiteness is checked by the engine)."""
         if type(action) is np.ndarray and action.dtype == np.float32 and action.shape == self.action_space.shape:
             return action.reshape(1, -1)
-        error = action_error(action, self.action_space.shape)
-        if error:
-            raise ValueError(error)
-        return np.asarray(action, dtype=np.float32).reshape(1, -1)
+        return checked_actions(action, self.action_space.shape).reshape(1, -1)
 
-    def _info(self, values: list[float], terminated: bool, stepped: bool) -> dict:
-        """The info from the disk's column of the info block, as a list."""
+    def _info(self, values: list[float], terminated: bool) -> dict:
+        """The info from the disk's column of the info block, as a list: the same keys at every step and reset."""
         info = {
             "state": np.array(values[:8]),
             "energy": values[engine.ENERGY],
@@ -223,11 +226,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             "normal_force": values[engine.NORMAL_FORCE],
             "required_friction": values[engine.REQUIRED_FRICTION],
             "is_success": bool(self._out.flags[engine.SUCCESS, 0]),
+            "termination": int(values[engine.STATUS]) if terminated else 0,
         }
-        if stepped:
-            info.update(zip(self._term_keys, values[engine.TERMS :]))
-        if terminated:
-            info["termination"] = engine.TERMINATIONS[int(values[engine.STATUS])]
+        info.update(zip(self._term_keys, values[engine.TERMS :]))
         return info
 
     def render(self):

@@ -12,18 +12,16 @@ from gymnasium.vector.utils import batch_space
 
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env.envs.batch import DiskBatch, Outputs
-from rolling_disk_env.envs.config import EnvConfig, action_error
-
-_REASONS = np.array(engine.TERMINATIONS, dtype=object)
-"""``info["termination"]`` by termination code."""
+from rolling_disk_env.envs.config import EnvConfig, checked_actions
 
 
 class RollingDiskVectorEnv(VectorEnv):
     """N independent rolling disks stepped together by the compiled engine.
 
     Same arguments, spaces, rewards and ``info`` keys as :class:`~rolling_disk_env.envs.RollingDiskEnv`, batched as
-    ``SyncVectorEnv`` batches them: each key with its mask ``_key`` (the reward terms are absent, masked out, for a
-    sub-environment whose info comes from a reset; ``"termination"`` is an object array, None where absent). Plus:
+    ``SyncVectorEnv`` batches them: every key at every step, each with its mask ``_key`` (all True but in SAME_STEP's
+    ``final_info``, which holds the sub-environments that ended, and after ``reset(options={"reset_mask": mask})``,
+    which holds those reset); reward terms are 0 where a sub-environment's info comes from a reset. Plus:
 
     Args:
         num_envs: N.
@@ -100,7 +98,7 @@ class RollingDiskVectorEnv(VectorEnv):
         self._batch.reset(mask, out, self._rngs, states)
         self._ended &= ~mask
         self._observations = out.observations
-        return out.observations.copy(), self._infos(out, mask, self._none)
+        return out.observations.copy(), self._infos(out, mask)
 
     def _reset_mask(self, mask) -> np.ndarray:
         """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it; all envs when it is absent."""
@@ -137,10 +135,7 @@ class RollingDiskVectorEnv(VectorEnv):
         if self._observations is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         if type(actions) is not np.ndarray or actions.dtype != np.float32 or not actions.flags.c_contiguous:
-            error = action_error(actions, self.action_space.shape)
-            if error:
-                raise ValueError(error.replace("action", "actions", 1))
-            actions = np.ascontiguousarray(actions, dtype=np.float32)
+            actions = checked_actions(actions, self.action_space.shape, "actions")
         elif actions.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
         mode = self.autoreset_mode
@@ -160,23 +155,20 @@ class RollingDiskVectorEnv(VectorEnv):
         rewards = out.info[engine.REWARD].copy()
         terminated, truncated = out.flags[engine.TERMINATED].copy(), out.flags[engine.TRUNCATED].copy()
         ended = terminated | truncated
-        stepped = ~resetting
         if mode == AutoresetMode.SAME_STEP and ended.any():
             final = self._final(out, ended)
             self._batch.reset(ended, out, self._rngs)
-            infos = self._infos(out, None, stepped & ~ended)
+            infos = self._infos(out, None)
             infos.update(final)
         else:
-            infos = self._infos(out, None, stepped)
+            infos = self._infos(out, None)
             self._ended = ended
         self._observations = out.observations
         return out.observations.copy(), rewards, terminated, truncated, infos
 
-    def _infos(self, out: Outputs, present: np.ndarray | None, stepped: np.ndarray) -> dict:
-        """The batched info of ``out``, each key with its mask: ``present`` reports the state and contact keys (None:
-        every sub-environment), ``stepped`` the reward terms and the termination."""
+    def _infos(self, out: Outputs, present: np.ndarray | None) -> dict:
+        """The batched info of ``out``: every key, each with its mask ``present`` (None: every sub-environment)."""
         info = out.info
-        everyone = np.ones(self.num_envs, dtype=bool) if present is None else present
         infos = {
             "state": info[: engine.STATE + 8].T,
             "energy": info[engine.ENERGY],
@@ -184,22 +176,11 @@ class RollingDiskVectorEnv(VectorEnv):
             "normal_force": info[engine.NORMAL_FORCE],
             "required_friction": info[engine.REQUIRED_FRICTION],
             "is_success": out.flags[engine.SUCCESS],
+            "termination": np.where(out.flags[engine.TERMINATED], info[engine.STATUS], 0).astype(np.int64),
         }
-        infos = {key: value for name, value in infos.items() for key, value in ((name, value), (f"_{name}", everyone))}
-        if stepped.any():
-            for row, key in enumerate(self._term_keys, start=engine.TERMS):
-                infos[key], infos[f"_{key}"] = info[row], stepped
-        terminated = out.flags[engine.TERMINATED] & stepped
-        if terminated.any():
-            infos["termination"], infos["_termination"] = self._reasons(info[engine.STATUS], terminated), terminated
-        return infos
-
-    def _reasons(self, status: np.ndarray, terminated: np.ndarray) -> np.ndarray:
-        """``info["termination"]``: the name of the termination code ``status`` where ``terminated``, None elsewhere
-        (an object array)."""
-        reasons = np.empty(self.num_envs, dtype=object)  # None everywhere
-        reasons[terminated] = _REASONS[status[terminated].astype(np.intp)]
-        return reasons
+        infos.update(zip(self._term_keys, info[engine.TERMS :]))
+        mask = np.ones(self.num_envs, dtype=bool) if present is None else present
+        return {key: value for name, value in infos.items() for key, value in ((name, value), (f"_{name}", mask))}
 
     def _final(self, out: Outputs, ended: np.ndarray) -> dict:
         """SAME_STEP's ``final_obs`` and ``final_info`` of the sub-environments that ended, taken from ``out`` before
@@ -210,5 +191,5 @@ class RollingDiskVectorEnv(VectorEnv):
         kept = Outputs.empty(self.num_envs, out.observations.shape[1], len(self._term_keys))
         kept.info[:, ended] = out.info[:, ended]
         kept.flags[:, ended] = out.flags[:, ended]
-        final_info = self._infos(kept, ended, ended)
+        final_info = self._infos(kept, ended)
         return {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info, "_final_info": ended.copy()}
