@@ -77,7 +77,7 @@ class GotoTask(Task):
     ``reset(options={"state": x0})`` keeps the drawn target (it is placed from the drawn heading, not x0's).
 
     Success: the centre's ground projection comes within ``reach_radius`` = 0.25 m of the target without falling
-    (|theta| > ``fall_lean`` = 0.8 rad); the episode then terminates (``info["termination"] == "reached"``).
+    (|theta| > ``fall_lean`` = 0.8 rad); the episode then terminates (``info["termination"] == Termination.REACHED``).
     Failure: falling (or lifting off), or the time limit.
     """
 
