@@ -258,7 +258,7 @@ def chart(sizes, rates, path, cpu: str) -> None:
     for name, values in rates.items():
         style, label = labels[name]
         ax.loglog(sizes, values, style, label=label)
-    ax.set_title(f"Native vector envs, random actions (median), {cpu}")
+    ax.set_title(f"Native vector envs, random actions (median)\n{cpu}", fontsize=8)
     ax.set_xlabel("number of environments N")
     ax.set_ylabel("env steps per second")
     ax.grid(alpha=0.3, which="both")

@@ -14,11 +14,11 @@ from pathlib import Path
 import pytest
 
 import rolling_disk_env
-from rolling_disk_env import dynamics, integrators
+from rolling_disk_env import constants, dynamics, integrators
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-API_MODULES = (rolling_disk_env, dynamics, integrators)
+API_MODULES = (rolling_disk_env, constants, dynamics, integrators)
 """The modules whose top level defines the package's public names."""
 DIRECTIVE = re.compile(r"^::: ([\w.]+)$", re.MULTILINE)
 """A mkdocstrings directive: the object it renders."""
