@@ -207,8 +207,10 @@ def test_thread_choice_takes_the_faster_way_and_follows_a_change_of_load():
         return ways
 
     assert run(4, {False: 1.0, True: 1.0}) == [False, True, False, True]  # each way twice, the first untimed
-    every = ThreadChoice.PROBE_EVERY
-    busy = run(4 * every, {False: 1e-3, True: 6e-3})  # another process on a core: the threads wait for it
-    assert busy.count(True) == 4  # the threads only in the probes, one every PROBE_EVERY steps
-    idle = run(4 * every, {False: 1e-3, True: 0.6e-3})  # idle cores: the threads win
-    assert idle[-2 * every :].count(False) == 2  # found at the first probe, then kept but for the probes
+    busy = run(4096, {False: 1e-3, True: 6e-3})  # another process on a core: the threads wait for it
+    probes = busy.count(True)
+    assert 4 <= probes <= 10  # backing off: 32, 64, ... 2048 steps apart
+    assert busy[-1000:].count(True) <= 1
+    idle = run(4 * ThreadChoice.PROBE_EVERY + ThreadChoice.PROBE_AT_MOST, {False: 1e-3, True: 0.6e-3})
+    assert all(idle[-2 * ThreadChoice.PROBE_EVERY :][:-2]) or idle[-2 * ThreadChoice.PROBE_EVERY :].count(False) <= 2
+    assert idle[-ThreadChoice.PROBE_EVERY :].count(True) >= ThreadChoice.PROBE_EVERY - 1  # found at the next probe

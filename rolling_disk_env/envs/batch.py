@@ -63,23 +63,30 @@ class ThreadChoice:
     on the calling thread, from the times of its own recent steps.
 
     The first four steps try each way twice (the first time untimed: it may compile). Then the faster way is used,
-    its time a moving average of its steps (weight :data:`WEIGHT` on the latest); every :data:`PROBE_EVERY`-th step
-    tries the other way, whose time that one step sets, so that a change of load (another process starting or ending
-    on the cores) is followed within a probe or two (a probe made fast by chance is corrected by the steps that
-    follow it).
+    its time a moving average of its steps (weight :data:`WEIGHT` on the latest). Now and then a step tries the other
+    way (a probe), whose time that one step sets, so that a change of load (another process starting or ending on
+    the cores) is followed. A probe costs most where the threads lose: a thread on a busy core is preempted for whole
+    time slices, ten times a step, and the probe waits for it. So the probes back off: after a probe that loses, the
+    next comes twice as many steps later (from :data:`PROBE_EVERY` up to :data:`PROBE_AT_MOST`); after one that
+    wins, the ways swap and the probes start again every :data:`PROBE_EVERY` steps. A probe made fast by chance is
+    corrected by the steps that follow it.
 
     Attributes:
         threaded: whether the latest choice was the threads.
     """
 
     PROBE_EVERY = 32
-    """One step in this many times the way not in use."""
+    """Steps from a change of way to the first probe of the other."""
+    PROBE_AT_MOST = 2048
+    """The most steps between two probes."""
     WEIGHT = 0.25
     """Weight of a step's time in its way's moving average."""
 
     def __init__(self):
         self.threaded = True
         self.steps = 0
+        self.interval = self.PROBE_EVERY
+        self.next_probe = 4 + self.PROBE_EVERY
         self.seconds = [math.nan, math.nan]
         """Moving averages of a step's time (s): on the calling thread, on the threads."""
 
@@ -88,8 +95,7 @@ class ThreadChoice:
         self.steps += 1
         if self.steps <= 4:
             return self.steps % 2 == 0
-        probe = self.steps % self.PROBE_EVERY == 0
-        return self.threaded != probe
+        return self.threaded != (self.steps == self.next_probe)
 
     def record(self, threaded: bool, seconds: float) -> None:
         """Takes the time of a step that ran on the threads or not."""
@@ -101,7 +107,15 @@ class ThreadChoice:
         else:
             self.seconds[threaded] = average + self.WEIGHT * (seconds - average)
         serial, parallel = self.seconds
+        was = self.threaded
         self.threaded = math.isnan(serial) or parallel < serial
+        if self.steps >= self.next_probe:
+            won = self.threaded != was
+            self.interval = self.PROBE_EVERY if won else min(2 * self.interval, self.PROBE_AT_MOST)
+            self.next_probe = self.steps + self.interval
+        elif self.threaded != was:  # the way in use slowed down past the other's last time
+            self.interval = self.PROBE_EVERY
+            self.next_probe = self.steps + self.interval
 
 
 def thread_count(num_envs: int) -> int:
