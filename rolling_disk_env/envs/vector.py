@@ -38,8 +38,9 @@ class RollingDiskVectorEnv(VectorEnv):
     Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)`` (or ``seed[i]`` from a list), as
     ``SyncVectorEnv`` does, and draws its episodes exactly as a single env with that seed would: both run the same
     compiled kernels, so the transitions are equal to the last bit. ``reset(options={"state": X})`` takes initial
-    states of shape (N, 8). The batch steps vectorized over the disks, on numba's threads from
-    ``rolling_disk_env.envs.batch.THREADS_FROM`` disks (``NUMBA_NUM_THREADS=1`` keeps it on one).
+    states of shape (N, 8). The batch steps vectorized over the disks; from
+    ``rolling_disk_env.envs.batch.THREADS_FROM`` disks on numba's threads when they measure faster
+    (``rolling_disk_env.envs.batch.ThreadChoice``; ``NUMBA_NUM_THREADS=1`` keeps it on one).
     Rendering is not offered: render one disk with the single env.
     """
 
