@@ -476,9 +476,9 @@ FINISH_TEMPLATE = """\
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
 {store_state}
-        contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
+        contact = {contact}
         goal = {goal}
-        code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
+        code = {contact_status} if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
 {report}
@@ -486,7 +486,7 @@ FINISH_TEMPLATE = """\
 {terms}
         info[REWARD, k, i] = {reward}
         observation = task.observe(x, goal, settings)
-{observe}{tracking}
+{observe}{tracking}{sliding_report}
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = {success}"""
@@ -498,9 +498,9 @@ STEP_TEMPLATE = """
 
 @kernel
 def step_{method}_share(k, actions, batch, setup, out):
-    \"\"\"One control period with {method} of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
-    and each disk's outputs.
+    \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in one
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep and each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -637,6 +637,15 @@ _ADVANCE = {
         new = kernels.state_{method}_step(x, dt, tau_spin, tau_steer, m, g, r)
         kept = {kept}
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)""",
+    "contact": """    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[COULOMB] > 0.0
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        state = {sliding_state}
+        torques, disk = (tau_spin, tau_steer), (m, g, r)
+        state, code = engine.advance_contact(state, period, substeps, torques, friction, coulomb, disk)
+        x = engine.rolling_part(state)
+        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]""",
 }
 _SUCCESS = {
     "survive": ("code == RUNNING", "True"),
@@ -698,12 +707,49 @@ def generate_steps(task) -> str:
         if rule == "track"
         else ""
     )
+    rolling = {
+        "{contact}": "engine.contact(x, tau_spin, tau_steer, m, g, r)",
+        "{contact_status}": "engine.contact_status(contact[3], contact[4], friction)",
+        "{sliding_report}": "",
+    }
+    hybrid = {  # the "sliding" and "coulomb" contacts: the 10-state is `state`, its 8 rolling components `x`
+        "{contact}": "engine.hybrid_contact(state, torques, friction, coulomb, disk)",
+        "{contact_status}": "(LIFTED_OFF if not contact[3] > 0.0 else RUNNING)",
+        "{sliding_report}": "\n"
+        + _stores(
+            "info",
+            [f"CONTACT_ROWS + {j}" for j in range(5)],
+            ["state[5]", "state[6]", "contact[5]", "contact[6]", "contact[7]"],
+            8,
+            "k, i",
+        ),
+    }
     steps = []
-    for tableau in TABLEAUS:
-        advance = _ADVANCE["dopri5" if tableau.error else "fixed"]
-        template = STEP_TEMPLATE.replace("{advance}", advance).replace("{finish}", finish).replace("{track}", track)
-        store_substep = _stores("lanes", _STATE_ROWS, _items("x", 8), 16, "k, i")
-        steps.append(_fill(template, {**step_fields, "{store_substep}": store_substep, "{method}": tableau.name}))
+    store_substep = _stores("lanes", _STATE_ROWS, _items("x", 8), 16, "k, i")
+    # The 10-state of the "sliding" and "coulomb" contacts: the state rows around the centre's velocity.
+    sliding_rows = ["0", "1", "2", "3", "4", "CENTRE_VELOCITY", "CENTRE_VELOCITY + 1", "5", "6", "7"]
+    sliding_state = (
+        "(\n"
+        + "".join(
+            " " * 12 + ", ".join(f"lanes[{row}, k, i]" for row in sliding_rows[j : j + 4]) + ",\n"
+            for j in range(0, 10, 4)
+        )
+        + " " * 8
+        + ")"
+    )
+    for method, advance, contact_fields, described in [
+        *((t.name, _ADVANCE["dopri5" if t.error else "fixed"], rolling, f"with {t.name}") for t in TABLEAUS),
+        ("contact", _ADVANCE["contact"], hybrid, 'under the "sliding" or "coulomb" contact (RK4 steps)'),
+    ]:
+        template = STEP_TEMPLATE.replace("{advance}", advance).replace("{finish}", _fill(finish, contact_fields))
+        fields_here = {
+            **step_fields,
+            "{store_substep}": store_substep,
+            "{sliding_state}": sliding_state,
+            "{method}": method,
+            "{described}": described,
+        }
+        steps.append(_fill(template.replace("{track}", track), fields_here))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
@@ -715,10 +761,10 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ATOL, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, MASS, MAX_STEPS, NORMAL_FORCE,",
-            "    PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL, RUNNING, STATUS,",
-            "    STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED,",
-            "    TERMS, TRACKING_ERROR, TRUNCATED,",
+            "    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, LIFTED_OFF,",
+            "    MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL,",
+            "    RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,",
+            "    TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
             f"import {module.__name__} as task",
@@ -727,6 +773,8 @@ def generate_steps(task) -> str:
             '"""The sha256 of the task module these steps were generated from."""',
             f"OBSERVATION = TERMS + {terms}",
             '"""The first row of the observation in an info block, after the reward terms."""',
+            f"CONTACT_ROWS = OBSERVATION + {observations}",
+            '"""The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""',
         ]
     )
     return header + "\n" + imports + "\n\n" + _fill(RESET_TEMPLATE, fields) + "".join(steps)

@@ -15,3 +15,8 @@ LEAN_LIMIT = math.pi / 2 - LEAN_MARGIN
 ENGINE_METHODS = ("euler", "symplectic_euler", "rk4", "dopri5")
 """The methods the compiled engine integrates (their index is the engine's code for them): fixed steps, then the
 error-controlled Dormand-Prince 5(4)."""
+
+ZERO_SLIP = 1e-12
+"""A slip speed below ``ZERO_SLIP * sqrt(g r)`` counts as zero: the round-off of a rolling state's slip."""
+EVENT_TIME_TOLERANCE = 1e-13
+"""s. How closely the root-finding brackets a switching event's time (far below the integrators' own error)."""

@@ -14,8 +14,7 @@ The *sliding* model (the paper's frozen lake, with dry friction: :func:`rolling_
 has no rolling constraint: its state is ``(q, dq)``, ten numbers, :data:`SLIDING_STATE_NAMES`, the centre's
 horizontal velocity ``(dc1, dc2)`` (m/s) among them. Its functions take one 10-state or a batch (N, 10).
 
-The functions run on the compiled engine (:mod:`rolling_disk_env.engine`, and :mod:`rolling_disk_env.sliding_engine`
-for the sliding model), imported on first call.
+The functions run on the compiled engine (:mod:`rolling_disk_env.engine`), imported on first call.
 """
 
 from __future__ import annotations
@@ -308,21 +307,21 @@ def sliding_derivative(x, torque=(0.0, 0.0), friction_coefficient: float = 0.0, 
     Returns:
         ``(dc1, dc2, dphi, dtheta, dpsi, ddc1, ddc2, ddphi, ddtheta, ddpsi)``, same shape as ``x``.
     """
-    from rolling_disk_env import sliding_engine
+    from rolling_disk_env import engine
 
     shape, rows, torques, frictions, disks = _sliding_rows(x, torque, friction_coefficient, params)
     out = np.empty_like(rows)
-    sliding_engine.derivatives(rows, torques, frictions, disks, out)
+    engine.sliding_derivatives(rows, torques, frictions, disks, out)
     return out.reshape(shape)
 
 
 def _sliding_diagnostics(x, torque, friction_coefficient, params) -> np.ndarray:
     """Energy (J), normal force (N), friction force F1, F2 (N), slip velocity v1, v2 (m/s): (6,) or (N, 6)."""
-    from rolling_disk_env import sliding_engine
+    from rolling_disk_env import engine
 
     shape, rows, torques, frictions, disks = _sliding_rows(x, torque, friction_coefficient, params)
     out = np.empty((rows.shape[0], 6))
-    sliding_engine.diagnostics(rows, torques, frictions, disks, out)
+    engine.sliding_diagnostics(rows, torques, frictions, disks, out)
     return out[0] if len(shape) == 1 else out
 
 

@@ -26,8 +26,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rolling_disk_env._generated import kernels
-from rolling_disk_env.constants import ENGINE_METHODS, LEAN_LIMIT
+from rolling_disk_env._generated import kernels, sliding
+from rolling_disk_env.constants import ENGINE_METHODS, EVENT_TIME_TOLERANCE, LEAN_LIMIT, ZERO_SLIP
 from rolling_disk_env.jit import inline_kernel, kernel
 
 METHODS = ENGINE_METHODS
@@ -47,12 +47,15 @@ TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "subst
 STATE = 0
 TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_ERROR = range(8, 16)
 PREVIOUS = 16
-LANES = 24
+CENTRE_VELOCITY = 24
+LANES = 26
 """Rows of a batch's *lanes* array (a column per disk, and idle padding columns), which the step reads and writes in
 place:
 the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step size (s),
-the task's tracking error after the last step, and, with substeps, the state at the start of the control period
-(8 rows from PREVIOUS). A loop over the disks reads and writes rows, so it can vectorize."""
+the task's tracking error after the last step, with substeps the state at the start of the control period (8 rows
+from PREVIOUS), and under the ``"sliding"`` and ``"coulomb"`` contacts the centre's horizontal velocity (dc1, dc2)
+(2 rows from CENTRE_VELOCITY), with which the 8 state rows make the 10-state. A loop over the disks reads and writes
+rows, so it can vectorize."""
 
 ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD, STATUS = range(8, 15)
 """Rows of an info block (a column per disk, and padding) after the 8 state rows: energy (J), contact force
@@ -62,11 +65,14 @@ TERMS = 15
 TERMINATED, TRUNCATED, SUCCESS = range(3)
 """Rows of a flags block (booleans, one column per disk)."""
 
-PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_BOUND = range(7)
+PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_BOUND, COULOMB = range(8)
 """Entries of an env's ``config`` array: control period (s), fixed substeps, dopri5's tolerances, the friction
-coefficient (inf: ideal rolling), episode steps before truncation (0: none, as in the single env, whose TimeLimit
-wrapper truncates), the bound of the task's success rule (the rule itself is written into the task's generated
-step)."""
+coefficient (inf: ideal rolling; under the ``"sliding"`` and ``"coulomb"`` contacts, mu), episode steps before
+truncation (0: none, as in the single env, whose TimeLimit wrapper truncates), the bound of the task's success rule
+(the rule itself is written into the task's generated step), 1 under the ``"coulomb"`` contact (else 0)."""
+SLIDING_INFO = ("dc1", "dc2", "v1", "v2", "sliding")
+"""Rows of an info block after the observation under the ``"sliding"`` and ``"coulomb"`` contacts: the centre's
+horizontal velocity and the slip velocity (m/s), and 1 where the disk slides (0 where it rolls)."""
 
 
 class BatchArrays(NamedTuple):
@@ -288,6 +294,269 @@ def track(error_sums, lanes, steps, flags, k, disks, bound):
             step, half = steps[k, i], steps[k, i] // 2
             error_sums[k, i, step] = error_sums[k, i, step - 1] + lanes[TRACKING_ERROR, k, i]
             flags[SUCCESS, k, i] = (error_sums[k, i, step] - error_sums[k, i, half]) / max(1, step - half) <= bound
+
+
+# The "sliding" and "coulomb" contacts: a disk's 10-state x = (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi)
+# through a control period, one mode at a time (a scalar loop: the modes branch). The switching logic is that of
+# rolling_disk_env.integrators.simulate_contact with "rk4"; tests/test_contact_env.py checks the two against each other.
+
+
+@inline_kernel
+def rolling_part(x):
+    """The rolling 8-state ``(c1, c2, phi, theta, psi, dphi, dtheta, dpsi)`` of a 10-state."""
+    return x[0], x[1], x[2], x[3], x[4], x[7], x[8], x[9]
+
+
+@inline_kernel
+def rolling_start(y, m, g, r):
+    """The 10-state of a rolling 8-state ``y``: the centre's velocity from the rolling constraint, the slip zero."""
+    slope = kernels.state_derivative(y, 0.0, 0.0, m, g, r)
+    return y[0], y[1], y[2], y[3], y[4], slope[0], slope[1], y[5], y[6], y[7]
+
+
+@inline_kernel
+def along(x, a, k):
+    """``x + a k`` for 10-tuples."""
+    return (
+        x[0] + a * k[0], x[1] + a * k[1], x[2] + a * k[2], x[3] + a * k[3], x[4] + a * k[4],
+        x[5] + a * k[5], x[6] + a * k[6], x[7] + a * k[7], x[8] + a * k[8], x[9] + a * k[9],
+    )  # fmt: skip
+
+
+@inline_kernel
+def hybrid_friction(x, mu, onset, reference, zero_slip, r):
+    """The friction per unit normal force ``(f1, f2)`` of a sliding disk of the Coulomb hybrid.
+
+    Where the slip speed exceeds ``zero_slip`` (m/s), the kinetic law ``-mu v / |v|``; but reversed where the slip
+    points against ``reference`` (a direction, or zeros for none): past a stop inside an integration step, so that
+    the friction of the approach continues smoothly through it and the stop is a root of ``v . reference`` (what the
+    hybrid locates). At zero slip, ``onset``: the friction the rolling contact needed, at its limit mu.
+    """
+    v1, v2 = sliding.slip_velocity(x, r)
+    if v1 * v1 + v2 * v2 <= zero_slip * zero_slip:
+        return onset[0], onset[1]
+    f1, f2 = sliding.kinetic_friction(x, mu, r)
+    if v1 * reference[0] + v2 * reference[1] < 0.0:
+        return -f1, -f2
+    return f1, f2
+
+
+@inline_kernel
+def hybrid_slope(x, u, law, disk):
+    """dx/dt of a sliding disk under the friction of :func:`hybrid_friction`, ``law = (mu, onset, reference,
+    zero_slip)``; ``u`` the torques (N m), ``disk`` (m, g, r)."""
+    mu, onset, reference, zero_slip = law
+    f1, f2 = hybrid_friction(x, mu, onset, reference, zero_slip, disk[2])
+    return sliding.friction_derivative(x, u[0], u[1], f1, f2, disk[0], disk[1], disk[2])
+
+
+@kernel
+def hybrid_rk4_step(x, h, u, law, disk):
+    """One classical Runge-Kutta step of ``h`` seconds of a sliding disk (see :func:`hybrid_slope`)."""
+    k1 = hybrid_slope(x, u, law, disk)
+    k2 = hybrid_slope(along(x, h / 2, k1), u, law, disk)
+    k3 = hybrid_slope(along(x, h / 2, k2), u, law, disk)
+    k4 = hybrid_slope(along(x, h, k3), u, law, disk)
+    slope = (
+        k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0], k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1],
+        k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2], k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3],
+        k1[4] + 2 * k2[4] + 2 * k3[4] + k4[4], k1[5] + 2 * k2[5] + 2 * k3[5] + k4[5],
+        k1[6] + 2 * k2[6] + 2 * k3[6] + k4[6], k1[7] + 2 * k2[7] + 2 * k3[7] + k4[7],
+        k1[8] + 2 * k2[8] + 2 * k3[8] + k4[8], k1[9] + 2 * k2[9] + 2 * k3[9] + k4[9],
+    )  # fmt: skip
+    return along(x, h / 6, slope)
+
+
+@kernel
+def rolling_margin(y, u, mu, disk):
+    """``mu N - |lambda|`` of a rolling 8-state (N): positive while friction holds the contact."""
+    _, lambda1, lambda2, normal = kernels.diagnostics(y, u[0], u[1], disk[0], disk[1], disk[2])
+    return mu * normal - math.sqrt(lambda1 * lambda1 + lambda2 * lambda2)
+
+
+@kernel
+def contact_phase(x, u, mu, coulomb, disk):
+    """The mode of a disk in the 10-state ``x``: ``(code, rolling, law)``.
+
+    A disk that slips (slip speed above ``ZERO_SLIP sqrt(g r)``), and every disk on the frozen lake (``"sliding"``
+    with mu = 0), slides under kinetic friction (``law``'s reference: the slip's direction where mu > 0). At zero slip,
+    the rolling contact's needs decide: the disk rolls where ``"coulomb"`` friction holds it, ``|lambda| <= mu N``;
+    else it slides, starting with the friction it needed at its limit ``mu N`` (``law``'s onset). ``code`` is
+    LIFTED_OFF where the normal force of a disk at zero slip vanishes, and OUT_OF_DOMAIN where a ``"sliding"`` disk
+    with mu > 0 has zero slip and friction could hold it: the kinetic law has no force there (``"coulomb"`` rolls).
+    """
+    m, g, r = disk
+    zero_slip = ZERO_SLIP * math.sqrt(g * r)
+    v1, v2 = sliding.slip_velocity(x, r)
+    speed = math.sqrt(v1 * v1 + v2 * v2)
+    none = (0.0, 0.0)
+    if speed > zero_slip or (mu == 0.0 and not coulomb):
+        reference = (v1 / speed, v2 / speed) if mu > 0.0 and speed > zero_slip else none
+        return RUNNING, False, (mu, none, reference, zero_slip)
+    _, lambda1, lambda2, normal = kernels.diagnostics(rolling_part(x), u[0], u[1], m, g, r)
+    need = math.sqrt(lambda1 * lambda1 + lambda2 * lambda2)
+    if not normal > 0.0:
+        return LIFTED_OFF, True, (mu, none, none, zero_slip)
+    if need <= mu * normal:
+        return (RUNNING if coulomb else OUT_OF_DOMAIN), True, (mu, none, none, zero_slip)
+    onset = (mu * lambda1 / need, mu * lambda2 / need)
+    return RUNNING, False, (mu, onset, none, zero_slip)
+
+
+@kernel
+def slip_along(x, reference, r):
+    """``v . reference``: the slip velocity (m/s) along a direction; it reaches zero where the slip stops."""
+    v1, v2 = sliding.slip_velocity(x, r)
+    return v1 * reference[0] + v2 * reference[1]
+
+
+MAX_PERIOD_SWITCHES = 1000
+"""Switching events a disk may take in one control period under the ``"coulomb"`` contact; past it the episode ends
+with ``SUBSTEP_LIMIT`` (stick-slip chattering)."""
+
+
+@kernel
+def advance_contact(x, period, substeps, u, mu, coulomb, disk):
+    """A disk's 10-state ``x`` through a control period of ``substeps`` RK4 steps under the ``"sliding"``
+    (``coulomb`` False) or the ``"coulomb"`` contact of coefficient ``mu``, torques ``u`` (N m), disk ``(m, g, r)``.
+
+    Each mode (:func:`contact_phase`) integrates its own model: the rolling one on the 8-state, the sliding one on the
+    10-state. A step that crosses a switching event is cut where the event function vanishes (by bisection, to
+    :data:`~rolling_disk_env.constants.EVENT_TIME_TOLERANCE`), the mode switches there and the rest of the step runs
+    in the new mode: a rolling disk slips where ``mu N - |lambda|`` reaches 0, starting with the friction it needed;
+    a sliding disk stops where the slip along its direction at the start of the step reaches 0, and is put back on
+    the rolling constraint there (removing a slip within the step's error) before its new mode is decided.
+
+    Returns:
+        ``(x, code)``: the 10-state at the end of the period and RUNNING; or the state at its start and OUT_OF_DOMAIN
+        (the state left the model's domain, or :func:`contact_phase` says so), LIFTED_OFF, or SUBSTEP_LIMIT (more
+        than :data:`MAX_PERIOD_SWITCHES` switches).
+    """
+    start, r = x, disk[2]
+    code, rolling, law = contact_phase(x, u, mu, coulomb, disk)
+    switches = 0
+    for _ in range(substeps):
+        left = period / substeps
+        while code == RUNNING and left > 0.0:
+            if rolling:
+                y = rolling_part(x)
+                before = rolling_margin(y, u, mu, disk)
+                moved = kernels.state_rk4_step(y, left, u[0], u[1], disk[0], disk[1], disk[2])
+                if before > 0.0 >= rolling_margin(moved, u, mu, disk):
+                    low, high = 0.0, left
+                    while high - low > EVENT_TIME_TOLERANCE:
+                        middle = 0.5 * (low + high)
+                        probe = kernels.state_rk4_step(y, middle, u[0], u[1], disk[0], disk[1], disk[2])
+                        if rolling_margin(probe, u, mu, disk) > 0.0:
+                            low = middle
+                        else:
+                            high, moved = middle, probe
+                    left = left - high if high < left else 0.0
+                    x = rolling_start(moved, disk[0], disk[1], r)
+                    _, lambda1, lambda2, _ = kernels.diagnostics(moved, u[0], u[1], disk[0], disk[1], r)
+                    need = math.sqrt(lambda1 * lambda1 + lambda2 * lambda2)
+                    rolling, law = False, (mu, (mu * lambda1 / need, mu * lambda2 / need), law[2], law[3])
+                    switches += 1
+                else:
+                    x, left = rolling_start(moved, disk[0], disk[1], r), 0.0
+            else:
+                reference = law[2]
+                new = hybrid_rk4_step(x, left, u, law, disk)
+                if (reference[0] != 0.0 or reference[1] != 0.0) and not slip_along(new, reference, r) > 0.0:
+                    low, high = 0.0, left
+                    while high - low > EVENT_TIME_TOLERANCE:
+                        middle = 0.5 * (low + high)
+                        step = hybrid_rk4_step(x, middle, u, law, disk)
+                        if slip_along(step, reference, r) > 0.0:
+                            low = middle
+                        else:
+                            high, new = middle, step
+                    left = left - high if high < left else 0.0
+                    x = rolling_start(rolling_part(new), disk[0], disk[1], r)
+                    switches += 1
+                else:
+                    x, left = new, 0.0
+                code, rolling, law = contact_phase(x, u, mu, coulomb, disk)
+            total = x[0] + x[1] + x[2] + x[3] + x[4] + x[5] + x[6] + x[7] + x[8] + x[9]
+            if not (math.isfinite(total) and abs(x[3]) < LEAN_LIMIT):
+                return start, OUT_OF_DOMAIN
+            if switches > MAX_PERIOD_SWITCHES:
+                return x, SUBSTEP_LIMIT
+    return (start if code == OUT_OF_DOMAIN else x), code
+
+
+@kernel
+def hybrid_contact(x, u, mu, coulomb, disk):
+    """What a disk in the 10-state ``x`` reports under the ``"sliding"`` or ``"coulomb"`` contact:
+    ``(energy, F1, F2, normal_force, required_friction, v1, v2, sliding)``: J, the horizontal and vertical ground
+    reactions (N), the friction coefficient the contact uses (``|F| / N``: what it needs while it rolls; mu, or the
+    onset's, while it slides; inf where N <= 0), the slip velocity (m/s) and 1.0 where the disk slides (0.0 where it
+    rolls)."""
+    m, g, r = disk
+    _, rolling, law = contact_phase(x, u, mu, coulomb, disk)
+    v1, v2 = sliding.slip_velocity(x, r)
+    if rolling:
+        energy, force1, force2, normal, required = contact(rolling_part(x), u[0], u[1], m, g, r)
+        return energy, force1, force2, normal, required, v1, v2, 0.0
+    f1, f2 = hybrid_friction(x, mu, law[1], law[2], law[3], r)
+    energy, normal, v1, v2 = sliding.friction_diagnostics(x, u[0], u[1], f1, f2, m, g, r)
+    required = math.sqrt(f1 * f1 + f2 * f2) if normal > 0.0 else math.inf
+    return energy, normal * f1, normal * f2, normal, required, v1, v2, 1.0
+
+
+@kernel
+def start_contact(mask, velocities, lanes, setup, info, first):
+    """Under the ``"sliding"`` and ``"coulomb"`` contacts, completes the reset of the disks of ``mask`` (after the
+    task's reset wrote their 8-states): the centre's velocity from ``velocities[i]`` (m/s; NaNs: from the rolling
+    constraint) into rows CENTRE_VELOCITY of ``lanes`` (``[row, i]``), and their contact's report at zero torque into
+    ``info``: rows ENERGY to REQUIRED_FRICTION, and the rows :data:`SLIDING_INFO` from row ``first``."""
+    config = setup[0]
+    mu, coulomb, u = config[FRICTION], config[COULOMB] > 0.0, (0.0, 0.0)
+    for i in range(mask.shape[0]):
+        if not mask[i]:
+            continue
+        disk = (lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
+        y = (lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i], lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i])
+        x = rolling_start(y, disk[0], disk[1], disk[2])
+        if not np.isnan(velocities[i, 0]):
+            x = (x[0], x[1], x[2], x[3], x[4], velocities[i, 0], velocities[i, 1], x[7], x[8], x[9])
+        lanes[CENTRE_VELOCITY, i], lanes[CENTRE_VELOCITY + 1, i] = x[5], x[6]
+        report = hybrid_contact(x, u, mu, coulomb, disk)
+        for j in range(5):
+            info[ENERGY + j, i] = report[j]
+        info[first, i], info[first + 1, i] = x[5], x[6]
+        info[first + 2, i], info[first + 3, i], info[first + 4, i] = report[5], report[6], report[7]
+
+
+@kernel
+def sliding_derivatives(states, torques, frictions, disks, out):
+    """dx/dt of the sliding model under kinetic friction for each row of 10-states; ``frictions[i]`` is row i's
+    coefficient, ``torques`` rows (tau_spin, tau_steer) (N m), ``disks`` rows (m, g, r)."""
+    for i in range(states.shape[0]):
+        u, disk = torques[i], disks[i]
+        store(out[i], sliding.sliding_derivative(states[i], u[0], u[1], frictions[i], disk[0], disk[1], disk[2]))
+
+
+@kernel
+def sliding_diagnostics(states, torques, frictions, disks, out):
+    """``(energy, normal_force, F1, F2, v1, v2)`` under kinetic friction for each row: ``out`` (N, 6)."""
+    for i in range(states.shape[0]):
+        u, disk = torques[i], disks[i]
+        store(out[i], sliding.sliding_diagnostics(states[i], u[0], u[1], frictions[i], disk[0], disk[1], disk[2]))
+
+
+@kernel
+def hybrid_derivative(x, u, mu, onset, reference, zero_slip, disk, out):
+    """dx/dt of a sliding disk of the Coulomb hybrid (friction from :func:`hybrid_friction`) into ``out`` (10,)."""
+    store(out, hybrid_slope(x, u, (mu, onset, reference, zero_slip), disk))
+
+
+@kernel
+def hybrid_diagnostics(x, u, mu, onset, reference, zero_slip, disk):
+    """``(energy, normal_force, F1, F2, v1, v2)`` of a sliding disk of the Coulomb hybrid."""
+    f1, f2 = hybrid_friction(x, mu, onset, reference, zero_slip, disk[2])
+    energy, normal, v1, v2 = sliding.friction_diagnostics(x, u[0], u[1], f1, f2, disk[0], disk[1], disk[2])
+    return energy, normal, normal * f1, normal * f2, v1, v2
 
 
 # The model API's loops (rolling_disk_env.dynamics and rolling_disk_env.integrators): rows of states, torques (N, 2)

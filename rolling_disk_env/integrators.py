@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rolling_disk_env.constants import ENGINE_METHODS, LEAN_LIMIT
+from rolling_disk_env.constants import ENGINE_METHODS, EVENT_TIME_TOLERANCE, LEAN_LIMIT, ZERO_SLIP
 from rolling_disk_env.dynamics import (
     FULL_MODEL,
     LEAN_MODEL,
@@ -57,10 +57,6 @@ switching event by root-finding on the length of the step that crosses it. ``"do
 RK45 (the Dormand-Prince 5(4) pair of the engine's dopri5, with scipy's step control) and DOP853 under ``rtol`` and
 ``atol``, events located on their dense output. Euler's methods are refused: their first-order error would swamp the
 events."""
-ZERO_SLIP = 1e-12
-"""A slip speed below ``ZERO_SLIP * sqrt(g r)`` counts as zero: the round-off of a rolling state's slip."""
-EVENT_TIME_TOLERANCE = 1e-13
-"""s. How closely the root-finding brackets a switching event's time (far below the integrators' own error)."""
 MAX_SWITCHES = 10_000
 """Switching events one disk may take in a ``"coulomb"`` simulation before it raises (stick-slip chattering)."""
 MAX_CONTACT_STEPS = 1_000_000
@@ -516,18 +512,18 @@ class _ContactRun:
         return float(values[3]), values[1:3].copy()
 
     def sliding_rhs(self, phase: _Phase, t: float, y: np.ndarray) -> np.ndarray:
-        from rolling_disk_env import sliding_engine
+        from rolling_disk_env import engine
 
         out = np.empty(SLIDING_MODEL.size)
         u = self.torque(t, y)
-        sliding_engine.hybrid_derivative(y, u, self.mu, phase.onset, phase.reference, self.zero_slip, self.disk, out)
+        engine.hybrid_derivative(y, u, self.mu, phase.onset, phase.reference, self.zero_slip, self.disk, out)
         return out
 
     def sliding_contact(self, phase: _Phase, t: float, y: np.ndarray) -> tuple[float, np.ndarray]:
         """``(N, v)`` of a sliding 10-state: normal force (N) and slip velocity (m/s)."""
-        from rolling_disk_env import sliding_engine
+        from rolling_disk_env import engine
 
-        values = sliding_engine.hybrid_diagnostics(
+        values = engine.hybrid_diagnostics(
             y, self.torque(t, y), self.mu, phase.onset, phase.reference, self.zero_slip, self.disk
         )
         return values[1], np.array(values[4:6])

@@ -296,7 +296,8 @@ def test_bad_arguments_are_named():
 
 _PROGRAM = """
 import json, numpy as np, rolling_disk_env as rd
-from rolling_disk_env import sliding_engine
+from rolling_disk_env import engine
+from rolling_disk_env.dynamics import steady_motion
 rng = np.random.default_rng(9)
 x = rng.uniform(-2, 2, (20, 10))
 x[:, 3] = rng.uniform(-1.3, 1.3, 20)
@@ -304,8 +305,11 @@ u = rng.uniform(-5, 5, (20, 2))
 out = {"derivative": rd.sliding_derivative(x, u, 0.4).tolist(), "diagnostics": rd.friction_force(x, u, 0.4).tolist()}
 row = np.empty(10)
 disk = np.array([5.0, 9.81, 1.0])
-sliding_engine.hybrid_derivative(x[0], u[0], 0.4, np.array([0.1, 0.2]), -x[0, 5:7], 1e-12, disk, row)
+engine.hybrid_derivative(x[0], u[0], 0.4, np.array([0.1, 0.2]), -x[0, 5:7], 1e-12, disk, row)
 out["hybrid"] = row.tolist()
+# The env's control period under "coulomb": the paper's circle slips at once on mu = 0.3, and sticks in 1.9 s.
+circle = tuple(rd.sliding_state(np.array([2, 0, 0, 0.5, 0, steady_motion(0.5, 1.0), 0, 1.0])).tolist())
+out["period"] = engine.advance_contact(circle, 2.0, 100, (0.0, 0.0), 0.3, True, (5.0, 9.81, 1.0))[0]
 print(json.dumps(out))
 """
 

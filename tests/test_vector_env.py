@@ -13,6 +13,8 @@ from rolling_disk_env.tasks import TASKS
 RANDOMIZED_DISKS = {"params_ranges": {"mass": (4.0, 6.0), "radius": (0.8, 1.2), "gravity": (9.0, 10.6)}}
 THREADED = 512
 """A batch that the tests step on numba's threads."""
+COULOMB = {"contact": "coulomb", "friction_coefficient": 0.2}
+"""A contact on which the tasks' disks slide now and then."""
 LIMIT = 60
 """Episode steps before truncation in these tests: short, so that every sub-environment is reset many times."""
 
@@ -62,10 +64,14 @@ def _assert_transitions_equal(ours, theirs):
 
 
 @pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda mode: mode.value)
-@pytest.mark.parametrize("task", sorted(TASKS))
-def test_each_autoreset_mode_behaves_exactly_like_sync_vector_env(task, mode):
+@pytest.mark.parametrize(
+    "kwargs",
+    [pytest.param({"task": task}, id=task) for task in sorted(TASKS)]
+    + [pytest.param({"task": "goto", **COULOMB}, id="goto, coulomb")],
+)
+def test_each_autoreset_mode_behaves_exactly_like_sync_vector_env(kwargs, mode):
     num_envs, steps = 4, 1000
-    ours, theirs = _native(num_envs, mode, task=task), _sync(num_envs, mode, task=task)
+    ours, theirs = _native(num_envs, mode, **kwargs), _sync(num_envs, mode, **kwargs)
     assert ours.autoreset_mode == ours.metadata["autoreset_mode"] == mode
     reset = ours.reset(seed=5), theirs.reset(seed=5)
     np.testing.assert_array_equal(reset[0][0], reset[1][0])
@@ -91,7 +97,10 @@ def test_each_autoreset_mode_behaves_exactly_like_sync_vector_env(task, mode):
     [pytest.param({"task": task}, 5, range(5), id=task) for task in sorted(TASKS)]
     + [pytest.param({"task": task, **RANDOMIZED_DISKS}, 5, range(5), id=f"{task}, random disks") for task in TASKS]
     # A batch this large is split into shares, one a thread, padded (envs.batch), and fills the vectorized loop.
-    + [pytest.param({"task": "circle"}, THREADED, (0, 1, THREADED // 2, THREADED - 1), id="circle, threads")],
+    + [pytest.param({"task": "circle"}, THREADED, (0, 1, THREADED // 2, THREADED - 1), id="circle, threads")]
+    + [pytest.param({"task": task, **COULOMB}, 5, range(5), id=f"{task}, coulomb") for task in sorted(TASKS)]
+    + [pytest.param({"task": "goto", "contact": "sliding"}, 5, range(5), id="goto, frozen lake")]
+    + [pytest.param({"task": "circle", **COULOMB}, THREADED, (0, THREADED - 1), id="circle, coulomb, threads")],
 )
 def test_vector_env_equals_single_envs_to_the_last_bit(kwargs, num_envs, compared, monkeypatch):
     monkeypatch.setattr(batch, "THREADS_FROM", THREADED // 2)  # so that the large batch steps on threads
@@ -105,7 +114,7 @@ def test_vector_env_equals_single_envs_to_the_last_bit(kwargs, num_envs, compare
         np.testing.assert_array_equal(infos["state"][i], info["state"])
     rng = np.random.default_rng(0)
     done = np.zeros(num_envs, dtype=bool)
-    resets = 0
+    resets = slid = 0
     for _ in range(steps):
         actions = rng.uniform(-1.2, 1.2, (num_envs, 2)).astype(np.float32)
         observations, rewards, terminated, truncated, infos = vector.step(actions)
@@ -119,8 +128,13 @@ def test_vector_env_equals_single_envs_to_the_last_bit(kwargs, num_envs, compare
             np.testing.assert_array_equal(observations[i], observation)
             assert (rewards[i], terminated[i], truncated[i]) == (reward, term, trunc)
             np.testing.assert_array_equal(infos["state"][i], info["state"])
+            np.testing.assert_array_equal(infos["slip_velocity"][i], info["slip_velocity"])
             assert infos["energy"][i] == info["energy"] and infos["is_success"][i] == info["is_success"]
+            assert infos["sliding"][i] == info["sliding"]
+            slid += info["sliding"]
         done = terminated | truncated
+    if kwargs.get("contact"):
+        assert slid > 0  # the contact is put to work
     assert resets >= len(singles) * steps // LIMIT - len(singles)
 
 

@@ -16,10 +16,10 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ATOL, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, MASS, MAX_STEPS, NORMAL_FORCE,
-    PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL, RUNNING, STATUS,
-    STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED,
-    TERMS, TRACKING_ERROR, TRUNCATED,
+    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, LIFTED_OFF,
+    MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL,
+    RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,
+    TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.circle as task
@@ -28,6 +28,8 @@ TASK_SOURCE = "8faa2fae80013f15efffc892d82387fee37a2b301398fabd3f8a24946a0baa6b"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
+CONTACT_ROWS = OBSERVATION + 8
+"""The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""
 
 
 @kernel
@@ -107,8 +109,8 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
 @kernel
 def step_euler_share(k, actions, batch, setup, out):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
-    and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep and each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -213,8 +215,8 @@ def step_euler_threads(actions, batch, setup, out):
 @kernel
 def step_symplectic_euler_share(k, actions, batch, setup, out):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
-    and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep and each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -319,8 +321,8 @@ def step_symplectic_euler_threads(actions, batch, setup, out):
 @kernel
 def step_rk4_share(k, actions, batch, setup, out):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
-    and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep and each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -425,8 +427,8 @@ def step_rk4_threads(actions, batch, setup, out):
 @kernel
 def step_dopri5_share(k, actions, batch, setup, out):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps), the last (or only) substep
-    and each disk's outputs.
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep and each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -509,4 +511,98 @@ def step_dopri5_threads(actions, batch, setup, out):
     if bad < 0:
         for k in prange(batch[0].shape[1]):
             step_dopri5_share(np.int64(k), actions, batch, setup, out)
+    return bad
+
+
+@kernel
+def step_contact_share(k, actions, batch, setup, out):
+    """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch: the action's torques, then, in one
+    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep and each disk's outputs.
+
+    ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
+    :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
+    last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
+    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
+    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
+    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
+    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps, error_sums = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags = out
+    settings = (settings[0], settings[1], settings[2], settings[3])
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
+    engine.action_torques(actions, actuators, lanes, k, disks)
+    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[COULOMB] > 0.0
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        state = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i], lanes[5, k, i],
+            lanes[6, k, i], lanes[7, k, i],
+        )
+        torques, disk = (tau_spin, tau_steer), (m, g, r)
+        state, code = engine.advance_contact(state, period, substeps, torques, friction, coulomb, disk)
+        x = engine.rolling_part(state)
+        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
+        lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+        lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        contact = engine.hybrid_contact(state, torques, friction, coulomb, disk)
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
+        code = (LIFTED_OFF if not contact[3] > 0.0 else RUNNING) if code == RUNNING else code
+        code = task.termination(x, goal, settings) if code == RUNNING else code
+        steps[k, i] += 1
+        info[0, k, i], info[1, k, i] = x[0], x[1]
+        info[2, k, i], info[3, k, i] = x[2], x[3]
+        info[4, k, i], info[5, k, i] = x[4], x[5]
+        info[6, k, i], info[7, k, i] = x[6], x[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
+        info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
+        observation = task.observe(x, goal, settings)
+        info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
+        info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
+        info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
+        info[OBSERVATION + 3, k, i] = min(max(observation[3], -bounds[3]), bounds[3])
+        info[OBSERVATION + 4, k, i] = min(max(observation[4], -bounds[4]), bounds[4])
+        info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
+        info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
+        info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
+        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
+        info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
+        info[CONTACT_ROWS + 4, k, i] = contact[7]
+        flags[TERMINATED, k, i] = code != RUNNING
+        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
+        flags[SUCCESS, k, i] = code == RUNNING
+    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
+    engine.transpose(info, OBSERVATION, observations, k)
+
+
+@kernel
+def step_contact(actions, batch, setup, out):
+    """Steps a batch (see :func:`step_contact_share`), its shares one after the other on the calling thread;
+    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        for k in range(batch[0].shape[1]):
+            step_contact_share(np.int64(k), actions, batch, setup, out)
+    return bad
+
+
+@parallel_kernel
+def step_contact_threads(actions, batch, setup, out):
+    """:func:`step_contact` with the shares on numba's threads, a share per thread (the share index is cast to
+    the type the serial step passes, so that both call the same compiled share)."""
+    bad = engine.first_nonfinite(actions)
+    if bad < 0:
+        for k in prange(batch[0].shape[1]):
+            step_contact_share(np.int64(k), actions, batch, setup, out)
     return bad

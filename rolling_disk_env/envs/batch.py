@@ -34,6 +34,7 @@ import numba
 import numpy as np
 
 from rolling_disk_env import engine
+from rolling_disk_env.dynamics import ROLLING_INDICES
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.tasks.base import TRACK, Task
 
@@ -168,9 +169,10 @@ class Outputs:
 
     Attributes:
         observations: (N, observation size), float32, clipped to the observation space.
-        info: (engine.TERMS + terms + observation size, N), float64, a column per disk: the state, energy, contact
-            forces, normal force, required friction, reward, termination code, reward terms (rows ``engine.ENERGY``
-            and the others), then the observation (which the step copies into ``observations``).
+        info: (engine.TERMS + terms + observation size (+ 5), N), float64, a column per disk: the state, energy,
+            contact forces, normal force, required friction, reward, termination code, reward terms (rows
+            ``engine.ENERGY`` and the others), then the observation (which the step copies into ``observations``),
+            then under the ``"sliding"`` and ``"coulomb"`` contacts the rows ``engine.SLIDING_INFO``.
         flags: (3, N), bool, a column per disk: terminated, truncated, success (rows ``engine.TERMINATED`` and the
             others).
         blocks: the arrays these are views of, as the reset takes them (padding included: a column or a row per
@@ -198,17 +200,22 @@ class Outputs:
 
     @classmethod
     def empty(
-        cls, num_envs: int, observation_size: int, terms: int, zeroed: bool = True, shares: tuple[int, int] = (1, 0)
+        cls,
+        num_envs: int,
+        observation_size: int,
+        rows: int,
+        zeroed: bool = True,
+        shares: tuple[int, int] = (1, 0),
     ) -> Outputs:
-        """New arrays for ``shares`` = (count, columns of each; 0: N): zeros, or (``zeroed=False``, for a step,
-        which writes every disk's) uninitialized."""
+        """New arrays, an info block of ``rows`` rows, for ``shares`` = (count, columns of each; 0: N): zeros, or
+        (``zeroed=False``, for a step, which writes every disk's) uninitialized."""
         make, (count, share) = (np.zeros if zeroed else np.empty), shares
         share = share or num_envs
         return cls(
             num_envs,
             (
                 make((count, share, observation_size), dtype=np.float32),
-                make((engine.TERMS + terms + observation_size, count, share)),
+                make((rows, count, share)),
                 make((3, count, share), dtype=bool),
             ),
         )
@@ -233,7 +240,10 @@ class DiskBatch:
         self.share = columns(-(-num_envs // self.threads))
         width = self.threads * self.share
         # The serial and the threaded kernels (resets on threads take the share as their first argument).
-        self._steps = (getattr(steps, f"step_{config.integrator}"), getattr(steps, f"step_{config.integrator}_threads"))
+        method = config.integrator if config.contact == "rolling" else "contact"
+        self._steps = (getattr(steps, f"step_{method}"), getattr(steps, f"step_{method}_threads"))
+        self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
+        """The first row of ``engine.SLIDING_INFO`` in the info block (None under the ``"rolling"`` contact)."""
         self._resets = (steps.reset, functools.partial(steps.reset_threads, self.share))
         self.choice = ThreadChoice() if self.threads > 1 else None
         """How a batch of several shares steps them (None: one share, on the calling thread)."""
@@ -254,7 +264,9 @@ class DiskBatch:
         self._growing = tracked and max_episode_steps is None
         self.error_sums = np.zeros((width, (max_episode_steps or 1024) + 2 if tracked else 1))
         self.uniforms = np.zeros((num_envs, config.draws))
-        self.no_state = np.full((num_envs, 8), np.nan)
+        self.no_state = np.full((num_envs, config.state_size), np.nan)
+        self.rows = engine.TERMS + self.terms + self.observation_size + (0 if self.contact_rows is None else 5)
+        """Rows of an info block."""
         self.setup = tuple(
             engine.SetupArrays(
                 config=config.engine_config(max_episode_steps),
@@ -272,7 +284,9 @@ class DiskBatch:
 
     @property
     def states(self) -> np.ndarray:
-        """The disks' states, (8, N): a view of the lanes."""
+        """The disks' rolling states ``(c1, c2, phi, theta, psi, dphi, dtheta, dpsi)``, (8, N): a view of the lanes
+        (under the ``"sliding"`` and ``"coulomb"`` contacts, the centre's velocity is in rows
+        ``engine.CENTRE_VELOCITY``)."""
         return self.lanes[engine.STATE : engine.STATE + 8, : self.num_envs]
 
     @property
@@ -282,7 +296,7 @@ class DiskBatch:
 
     def outputs(self, zeroed: bool = True) -> Outputs:
         """New output arrays for the batch (see :meth:`Outputs.empty`)."""
-        return Outputs.empty(self.num_envs, self.observation_size, self.terms, zeroed, (self.threads, self.share))
+        return Outputs.empty(self.num_envs, self.observation_size, self.rows, zeroed, (self.threads, self.share))
 
     def __getstate__(self) -> dict:
         """Pickles the arrays, not the views of them the step takes (which would pickle as copies)."""
@@ -315,12 +329,19 @@ class DiskBatch:
             out: where the disks' first observation and info go.
             rngs: (N, 4) uint64 PCG64 states to draw the episodes from (:mod:`rolling_disk_env.pcg64`); None to use
                 the uniforms already in :attr:`uniforms`.
-            states: (N, 8) initial states that replace the drawn ones (rows of NaN: none), or None.
+            states: (N, 8) initial states that replace the drawn ones (rows of NaN: none), or None; (N, 10) under
+                the ``"sliding"`` and ``"coulomb"`` contacts (centre velocities of NaN: from the rolling constraint).
         """
         rngs = self._no_rngs if rngs is None else rngs
         states = self.no_state if states is None else states
         reset = self._resets[self.choice is not None and self.choice.threaded]
-        reset(mask, rngs, self.uniforms, states, self._whole, self.setup, out.blocks)
+        if self.contact_rows is None:
+            reset(mask, rngs, self.uniforms, states, self._whole, self.setup, out.blocks)
+            return
+        rolling = np.ascontiguousarray(states[:, list(ROLLING_INDICES)])
+        reset(mask, rngs, self.uniforms, rolling, self._whole, self.setup, out.blocks)
+        velocities = np.ascontiguousarray(states[:, 5:7])
+        engine.start_contact(mask, velocities, self.lanes, self.setup, out.blocks[1], self.contact_rows)
 
     def step(self, actions: np.ndarray, out: Outputs) -> int:
         """Steps every disk under normalized ``actions`` (N, A), writing the outputs into ``out``.

@@ -12,12 +12,28 @@ import numpy as np
 from gymnasium import spaces
 
 from rolling_disk_env import engine
-from rolling_disk_env.dynamics import DEFAULT_PARAMS, DiskParams, check_states, is_number, number_pair
+from rolling_disk_env.dynamics import (
+    DEFAULT_PARAMS,
+    FULL_MODEL,
+    ROLLING_INDICES,
+    SLIDING_MODEL,
+    DiskParams,
+    check_friction_coefficient,
+    check_states,
+    is_number,
+    number_pair,
+)
 from rolling_disk_env.tasks import TASKS, Task
 
 ACTUATORS = ("spin", "steer")
 """Torque inputs, in the order of the dynamics' ``(tau_spin, tau_steer)``."""
 RESET_OPTIONS = frozenset({"state"})
+CONTACTS = ("rolling", "sliding", "coulomb")
+"""The contact models (``contact=``): the paper's rolling without slipping; the frozen lake's sliding, with kinetic
+Coulomb friction of ``friction_coefficient`` (default 0); their hybrid by Coulomb's law."""
+PAINLEVE_BOUND = math.sqrt(5) / 2
+"""The sliding model's normal force stays finite for friction coefficients below sqrt(5)/2 (Painleve's paradox
+above: see ``rolling_disk_env/_generated/sliding.py``)."""
 Termination = enum.IntEnum(
     "Termination", [("NONE", 0), *((name.upper(), code) for code, name in enumerate(engine.TERMINATIONS) if code)]
 )
@@ -51,6 +67,7 @@ class EnvConfig:
     rtol: float
     atol: float
     friction_coefficient: float | None
+    contact: str
     max_torque: tuple[float, float]
     params: DiskParams
     params_ranges: dict[str, tuple[float, float]]
@@ -67,6 +84,7 @@ class EnvConfig:
         rtol: float = 1e-6,
         atol: float = 1e-8,
         friction_coefficient: float | None = None,
+        contact: str = "rolling",
         max_spin_torque: float = 5.0,
         max_steer_torque: float = 10.0,
         params: DiskParams | None = None,
@@ -110,10 +128,30 @@ class EnvConfig:
         for name, value in (("rtol", rtol), ("atol", atol)):
             if not (is_number(value) and 0 < value < 1):
                 raise ValueError(f"{name} must be a number in (0, 1), got {value!r}")
-        if friction_coefficient is not None and not (
-            is_number(friction_coefficient) and 0 < friction_coefficient < math.inf
-        ):
-            raise ValueError(f"friction_coefficient must be None or a finite number > 0, got {friction_coefficient!r}")
+        if contact not in CONTACTS:
+            raise ValueError(f"contact must be one of {list(CONTACTS)}, got {contact!r}")
+        if contact == "rolling":
+            if friction_coefficient is not None and not (
+                is_number(friction_coefficient) and 0 < friction_coefficient < math.inf
+            ):
+                raise ValueError(
+                    f"friction_coefficient must be None or a finite number > 0, got {friction_coefficient!r}"
+                )
+        else:
+            if friction_coefficient is None and contact == "coulomb":
+                raise ValueError("contact='coulomb' needs a friction_coefficient: a finite number >= 0")
+            mu = 0.0 if friction_coefficient is None else check_friction_coefficient(friction_coefficient)
+            if not mu < PAINLEVE_BOUND:
+                raise ValueError(
+                    f"friction_coefficient must be below sqrt(5)/2 = {PAINLEVE_BOUND:.4f} under contact={contact!r} "
+                    f"(above it the sliding disk's normal force can have no finite value), got {friction_coefficient!r}"
+                )
+            friction_coefficient = mu
+            if integrator != "rk4":
+                raise ValueError(
+                    f"contact={contact!r} integrates with integrator='rk4' (its switching events are located within "
+                    f"each step; substeps sets the steps per control period), got integrator={integrator!r}"
+                )
         if not (isinstance(substeps, (int, np.integer)) and not isinstance(substeps, bool) and substeps >= 1):
             raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
         for name, value in (("max_spin_torque", max_spin_torque), ("max_steer_torque", max_steer_torque)):
@@ -145,6 +183,7 @@ class EnvConfig:
             rtol=float(rtol),
             atol=float(atol),
             friction_coefficient=None if friction_coefficient is None else float(friction_coefficient),
+            contact=contact,
             max_torque=(float(max_spin_torque), float(max_steer_torque)),
             params=params,
             params_ranges=checked_ranges,
@@ -195,25 +234,37 @@ class EnvConfig:
             engine.RTOL: self.rtol,
             engine.ATOL: self.atol,
             engine.FRICTION: math.inf if self.friction_coefficient is None else self.friction_coefficient,
+            engine.COULOMB: float(self.contact == "coulomb"),
             engine.MAX_STEPS: max_episode_steps or 0,
             engine.SUCCESS_BOUND: self.task.success_bound,
         }
         return np.array([values[key] for key in sorted(values)], dtype=np.float64)
 
+    @property
+    def state_size(self) -> int:
+        """Numbers in a state: 8 (rolling), or 10 under the ``"sliding"`` and ``"coulomb"`` contacts."""
+        return 8 if self.contact == "rolling" else SLIDING_MODEL.size
+
     def reset_state(self, options: dict | None, num_envs: int | None = None) -> np.ndarray | None:
-        """The checked initial state(s) ``options["state"]`` of shape (8,), or (num_envs, 8) for a vector env; or
-        None. Raises ``ValueError`` on an unknown option, a wrong shape, a state outside the model's domain or a
-        disk that has already fallen."""
+        """The checked initial state(s) ``options["state"]`` of shape (8,), or (num_envs, 8) for a vector env; under
+        the ``"sliding"`` and ``"coulomb"`` contacts also (10,) or (num_envs, 10), returned as 10-states with NaN
+        centre velocities for rolling 8-states (the engine takes them from the rolling constraint); or None. Raises
+        ``ValueError`` on an unknown option, a wrong shape, a state outside the model's domain or a disk that has
+        already fallen."""
         options = options or {}
         unknown = options.keys() - RESET_OPTIONS
         if unknown:
             raise ValueError(f"unknown reset option(s) {sorted(unknown)}; options: {sorted(RESET_OPTIONS)}")
         if "state" not in options:
             return None
-        state = check_states(options["state"], name='options["state"]')
-        expected = (8,) if num_envs is None else (num_envs, 8)
-        if state.shape != expected:
-            raise ValueError(f'options["state"] must have shape {expected}, got {state.shape}')
+        sizes = (8,) if self.contact == "rolling" else (8, SLIDING_MODEL.size)
+        shapes = [(size,) if num_envs is None else (num_envs, size) for size in sizes]
+        given = np.shape(options["state"])
+        if given not in shapes:
+            also = "" if self.contact != "rolling" else " (10-states need contact='sliding' or 'coulomb')"
+            raise ValueError(f'options["state"] must have shape {" or ".join(map(str, shapes))}, got {given}{also}')
+        model = SLIDING_MODEL if given[-1] == SLIDING_MODEL.size else FULL_MODEL
+        state = check_states(options["state"], model, name='options["state"]')
         fallen = np.flatnonzero(np.abs(np.atleast_2d(state)[:, 3]) > self.task.fall_lean)
         if fallen.size:
             theta = np.atleast_2d(state)[fallen[0], 3]
@@ -221,7 +272,11 @@ class EnvConfig:
                 f'options["state"] has |theta| = {abs(theta):.4g} rad: the disk has already fallen '
                 f"(fall_lean = {self.task.fall_lean} rad for task {self.task.name!r})"
             )
-        return state
+        if self.contact == "rolling" or model is SLIDING_MODEL:
+            return state
+        rows = np.full((*state.shape[:-1], SLIDING_MODEL.size), np.nan)
+        rows[..., list(ROLLING_INDICES)] = state
+        return rows
 
 
 def checked_actions(actions, shape: tuple[int, ...], name: str = "action") -> np.ndarray:

@@ -219,12 +219,20 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _info(self, values: list[float], terminated: bool) -> dict:
         """The info from the disk's column of the info block, as a list: the same keys at every step and reset."""
+        first = self._batch.contact_rows
+        if first is None:
+            state, sliding, slip = values[:8], False, [0.0, 0.0]
+        else:
+            state, sliding = values[:5] + values[first : first + 2] + values[5:8], values[first + 4] > 0.0
+            slip = values[first + 2 : first + 4]
         info = {
-            "state": np.array(values[:8]),
+            "state": np.array(state),
             "energy": values[engine.ENERGY],
             "contact_force": np.array(values[engine.LAMBDA1 : engine.LAMBDA2 + 1]),
             "normal_force": values[engine.NORMAL_FORCE],
             "required_friction": values[engine.REQUIRED_FRICTION],
+            "sliding": sliding,
+            "slip_velocity": np.array(slip),
             "is_success": bool(self._out.flags[engine.SUCCESS, 0]),
             "termination": int(values[engine.STATUS]) if terminated else 0,
         }

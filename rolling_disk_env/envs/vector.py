@@ -38,9 +38,9 @@ class RollingDiskVectorEnv(VectorEnv):
     Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)`` (or ``seed[i]`` from a list), as
     ``SyncVectorEnv`` does, and draws its episodes exactly as a single env with that seed would: both run the same
     compiled kernels, so the transitions are equal to the last bit. ``reset(options={"state": X})`` takes initial
-    states of shape (N, 8). The batch steps vectorized over the disks; from
-    ``rolling_disk_env.envs.batch.THREADS_FROM`` disks on numba's threads when they measure faster
-    (``rolling_disk_env.envs.batch.ThreadChoice``; ``NUMBA_NUM_THREADS=1`` keeps it on one).
+    states of shape (N, 8), or (N, 10) under the ``"sliding"`` and ``"coulomb"`` contacts. The batch steps vectorized
+    over the disks; from ``rolling_disk_env.envs.batch.THREADS_FROM`` disks on numba's threads when they measure
+    faster (``rolling_disk_env.envs.batch.ThreadChoice``; ``NUMBA_NUM_THREADS=1`` keeps it on one).
     Rendering is not offered: render one disk with the single env.
     """
 
@@ -169,13 +169,24 @@ class RollingDiskVectorEnv(VectorEnv):
 
     def _infos(self, out: Outputs, present: np.ndarray | None) -> dict:
         """The batched info of ``out``: every key, each with its mask ``present`` (None: every sub-environment)."""
-        info = out.info
+        info, first = out.info, self._batch.contact_rows
+        if first is None:
+            state, sliding, slip = (
+                info[: engine.STATE + 8].T,
+                np.zeros(self.num_envs, bool),
+                np.zeros((self.num_envs, 2)),
+            )
+        else:
+            state = np.concatenate([info[0:5], info[first : first + 2], info[5:8]]).T
+            sliding, slip = info[first + 4] > 0.0, info[first + 2 : first + 4].T
         infos = {
-            "state": info[: engine.STATE + 8].T,
+            "state": state,
             "energy": info[engine.ENERGY],
             "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
             "normal_force": info[engine.NORMAL_FORCE],
             "required_friction": info[engine.REQUIRED_FRICTION],
+            "sliding": sliding,
+            "slip_velocity": slip,
             "is_success": out.flags[engine.SUCCESS],
             "termination": np.where(out.flags[engine.TERMINATED], info[engine.STATUS], 0).astype(np.int64),
         }
@@ -189,7 +200,7 @@ class RollingDiskVectorEnv(VectorEnv):
         final_obs = np.empty(self.num_envs, dtype=object)  # None everywhere
         for i in np.flatnonzero(ended).tolist():
             final_obs[i] = out.observations[i].copy()
-        kept = Outputs.empty(self.num_envs, out.observations.shape[1], len(self._term_keys))
+        kept = Outputs.empty(self.num_envs, out.observations.shape[1], out.info.shape[0])
         kept.info[:, ended] = out.info[:, ended]
         kept.flags[:, ended] = out.flags[:, ended]
         final_info = self._infos(kept, ended)
