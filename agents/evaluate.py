@@ -103,8 +103,10 @@ def load_agent(path: Path):
     return NormalizedPolicy(model, normalize)
 
 
-def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, **env_kwargs) -> Result:
-    """Runs ``episodes`` seeded episodes at once on the native vector env, one episode per sub-environment."""
+def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, on_step=None, **env_kwargs) -> Result:
+    """Runs ``episodes`` seeded episodes at once on the native vector env, one episode per sub-environment;
+    ``on_step(infos, running)``, if given, sees every step's batched info with the mask of the episodes it belongs to
+    (those that had not ended before it)."""
     env = rd.RollingDiskVectorEnv(num_envs=episodes, max_episode_steps=rd.MAX_EPISODE_STEPS, **env_kwargs)
     observations, _ = env.reset(seed=seed)
     returns = np.zeros(episodes)
@@ -113,6 +115,8 @@ def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, **env
     while not finished.all():
         actions, _ = agent.predict(observations, deterministic=True)
         observations, rewards, terminated, truncated, infos = env.step(actions)
+        if on_step is not None:
+            on_step(infos, ~finished)
         returns += np.where(finished, 0.0, rewards)
         ending = (terminated | truncated) & ~finished
         successes |= ending & infos["is_success"]

@@ -6,15 +6,17 @@ again, and the cost of each contact model per disk-step.
 0.356, on a surface of mu = 0.3, under ``contact="coulomb"`` (``rd.simulate``, dop853): it slides from the start,
 leans into the turn and spirals in, loses energy to friction, sticks, and rolls on. Beside it, the same start rolling
 (the paper's model, which assumes friction enough) and on the frozen lake (``contact="sliding"``, mu = 0). The timing
-(skipped with ``--skip-timing``; run it on a quiet machine) is of ``rd.simulate`` for one disk, per output step of
-0.01 s, with each contact and method, on scenario 1 (which never needs more than 0.186: the hybrid rolls throughout)
-and on scenario 2 at mu = 0.3 (slides, then rolls).
+(skipped with ``--skip-timing``; run it on a quiet machine) is of the native vector env under each contact (task
+``circle``, random actions, N = 1 and 1024, against ``CartPoleVectorEnv`` timed in turns with it), and of
+``rd.simulate`` for one disk, per output step of 0.01 s, with each contact and method, on scenario 1 (which never
+needs more than 0.186: the hybrid rolls throughout) and on scenario 2 at mu = 0.3 (slides, then rolls).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from _common import arguments, median_seconds, table, write_markdown
+from _common import arguments, cpu, median_seconds, medians_in_turns, table, write_markdown
+from bench_env import VectorRun
 
 import rolling_disk_env as rd
 from rolling_disk_env.dynamics import ROLLING_INDICES
@@ -94,6 +96,33 @@ def chart(path, runs, events) -> None:
     plt.close(fig)
 
 
+ENV_CONTACTS = {
+    "rolling": {},
+    "sliding, mu = 0 (frozen lake)": {"contact": "sliding"},
+    "coulomb, mu = 1.1 (rolls throughout)": {"contact": "coulomb", "friction_coefficient": 1.1},
+    "coulomb, mu = 0.2 (slides at times)": {"contact": "coulomb", "friction_coefficient": 0.2},
+}
+"""The contacts whose env steps are timed, by row name."""
+
+
+def env_rows(quick: bool) -> list[list[object]]:
+    """Nanoseconds per disk-step of the native vector env (task circle, random actions) under each contact, and its
+    rate over ``CartPoleVectorEnv``'s at the same N, timed in turns."""
+    rows = []
+    for n in (1, 1024):
+        seconds = 0.05 if quick else 0.5
+        runs = {"CartPoleVectorEnv": VectorRun("CartPole-v1", n, {}, seconds)}
+        runs.update(
+            {name: VectorRun(rd.ENV_ID, n, {"task": "circle", **kw}, seconds) for name, kw in ENV_CONTACTS.items()}
+        )
+        rates = medians_in_turns(runs, 3 if quick else 7)
+        for name in ENV_CONTACTS:
+            rows.append([name, n, f"{1e9 / rates[name]:.0f}", f"{rates[name] / rates['CartPoleVectorEnv']:.2f}"])
+        for run in runs.values():
+            run.close()
+    return rows
+
+
 def timing_rows(quick: bool) -> list[list[object]]:
     """Seconds per output step of ``rd.simulate`` for one disk, per contact and method."""
     duration = 1.0 if quick else 6.0
@@ -131,8 +160,14 @@ def main() -> None:
         [name, f"{energy[0]:.3f}", f"{energy[-1]:.3f}", f"{np.degrees(runs[name][1][-1, 3]):.1f}"]
         for name, energy in energies.items()
     ]
+    skipped = "Not measured in this run (`--skip-timing`): to be measured on a quiet machine."
+    env_timing = (
+        skipped
+        if args.skip_timing
+        else table(["contact", "N", "ns per disk-step", "x CartPoleVectorEnv"], env_rows(args.quick))
+    )
     timing = (
-        "Not measured in this run (`--skip-timing`): to be measured on a quiet machine."
+        skipped
         if args.skip_timing
         else table(["start", "contact", "mu", "method", "us per output step"], timing_rows(args.quick))
     )
@@ -158,6 +193,16 @@ def main() -> None:
             table(["contact", "energy at 0 (J)", f"energy at {duration:g} s (J)", "final lean (deg)"], summary),
             "",
             "## Cost per disk-step",
+            "",
+            f"CPU: {cpu()}.",
+            "",
+            "The native vector env, task circle, random actions in [-1, 1], median of 7 samples of 0.5 s, each "
+            "contact timed in turns with `CartPoleVectorEnv` at the same N. The rolling contact runs the vectorized "
+            "fused step; the sliding and Coulomb contacts a step of their own, per disk, one mode at a time "
+            "(`engine.advance_contact`: RK4 steps, a step that crosses a switching event cut there by bisection), so "
+            "the rolling default pays nothing for them.",
+            "",
+            env_timing,
             "",
             "`rd.simulate` for one disk, microseconds per output step of 0.01 s (median of 7 runs). The sliding and "
             "Coulomb contacts run each disk through its events in Python around the compiled model (scipy's "

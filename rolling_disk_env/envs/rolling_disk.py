@@ -94,7 +94,8 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     sqrt(g / 3r) = 1.81 rad/s, so a passive disk falls); phi and psi uniform. ``circle``: near a circle of radius R
     drawn from [3, 6] m, tangent to it, vertical and rolling straight at the target speed (2 m/s). ``goto``: as
     ``upright``, with a target 3 to 8 m away at any bearing from the initial rolling direction. The task
-    modules document every range. ``reset(options={"state": x0})`` starts from an exact state instead.
+    modules document every range. ``reset(options={"state": x0})`` starts from an exact state instead (8 numbers, or
+    under the ``"sliding"`` and ``"coulomb"`` contacts 8 (rolling) or 10).
 
     ## Episode End
 
@@ -106,18 +107,23 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     | `FALLEN` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle`` and ``goto``) |
     | `REACHED` | ``goto``: the centre's ground projection came within 0.25 m of the target (a success) |
     | `LIFTED_OFF` | the normal force N vanished: rolling on the plane is over (checked at every step) |
-    | `SLIPPED` | with ``friction_coefficient`` mu set: the contact needs more, \\|lambda\\| / N > mu |
+    | `SLIPPED` | ``"rolling"`` contact, ``friction_coefficient`` mu set: it needs more, \\|lambda\\| / N > mu |
     | `OUT_OF_DOMAIN` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
     | `SUBSTEP_LIMIT` | ``"dopri5"`` did not finish the period in 10000 steps |
 
-    The contact is checked at the end of each control period. Truncation: after ``max_episode_steps`` (500 steps of
+    ``OUT_OF_DOMAIN`` also ends a ``contact="sliding"`` episode with mu > 0 where the slip stops and friction could
+    hold the disk: the kinetic law has no force there (``"coulomb"`` rolls on). The contact is checked at the end of
+    each control period. Truncation: after ``max_episode_steps`` (500 steps of
     0.02 s, 10 s), by the ``TimeLimit`` wrapper of ``gymnasium.make``.
 
     ``info`` holds the same keys at every step and at reset, each a number or an array of numbers, as Gymnasium's
     MuJoCo envs give them (so that Tianshou's buffers and TorchRL's info reader stack them): ``"state"`` (the
-    8-vector, float64), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2: the horizontal ground reaction in
-    N), ``"normal_force"`` (N, the vertical one), ``"required_friction"`` (|lambda| / N, the friction coefficient a
-    real contact needs to roll so), the ``"reward_<term>"`` keys (0 at reset), ``"termination"`` and
+    8-vector, float64; the 10-vector ``rolling_disk_env.SLIDING_STATE_NAMES`` under the ``"sliding"`` and
+    ``"coulomb"`` contacts), ``"energy"`` (J), ``"contact_force"`` (lambda1, lambda2: the horizontal ground reaction
+    in N), ``"normal_force"`` (N, the vertical one), ``"required_friction"`` (|lambda| / N, the friction coefficient
+    a real contact needs to roll so; mu while sliding), ``"sliding"`` (bool, False under ``"rolling"``),
+    ``"slip_velocity"`` (m/s, the contact point's horizontal velocity; zeros while rolling), the
+    ``"reward_<term>"`` keys (0 at reset), ``"termination"`` and
     ``"is_success"``: whether the episode counts as a success *if it ended at this step*, so True from the first
     step for a disk that has not fallen (``upright``: not fallen; ``circle``: not fallen and a mean radial error over
     the last half of the episode of at most 0.25 m), while on ``goto`` it is False until the step that reaches the
@@ -140,7 +146,8 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     | `integrator` | str | `"rk4"` | `"euler"`, `"symplectic_euler"`, `"rk4"` or `"dopri5"` (error-controlled) |
     | `substeps` | int | `1` | fixed-step integrator steps per control period |
     | `rtol`, `atol` | float | `1e-6`, `1e-8` | tolerances of `"dopri5"` (relative, absolute) |
-    | `friction_coefficient` | float | `None` | mu of the contact: the episode ends `"slipped"` when it falls short |
+    | `friction_coefficient` | float | `None` | mu of the contact (`"rolling"`: the episode ends `SLIPPED` past it) |
+    | `contact` | str | `"rolling"` | `"rolling"`, `"sliding"` (kinetic friction mu; 0: ice) or `"coulomb"` |
     | `max_spin_torque` | float | `5.0` | torque of action +1 on spin, N m |
     | `max_steer_torque` | float | `10.0` | torque of action +1 on steer, N m |
     | `params` | DiskParams | `DiskParams()` | mass 5 kg, radius 1 m, gravity 9.81 m/s^2 |
@@ -154,7 +161,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     * v0: initial version; the compiled engine (numba) computes the same transitions as before to within the
       rounding of its sine and cosine; flat ``reward_<term>`` info keys, the contact limits and ``"dopri5"`` added;
       every info key at every step, ``info["termination"]`` a ``Termination`` code (it was a name, on terminal steps
-      only).
+      only); ``contact=`` (``"sliding"``, ``"coulomb"``) with ``info["sliding"]`` and ``info["slip_velocity"]``.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
