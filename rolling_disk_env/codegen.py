@@ -418,7 +418,7 @@ def _sliding_source(name: str, arguments: tuple[str, ...], outputs: list[sp.Expr
 def generate_sliding() -> str:
     """Source of ``_generated/sliding.py``, the sliding model of :func:`rolling_disk_env.derivation.derive_sliding`:
     its slip velocity, Coulomb's kinetic friction, and its derivative and diagnostics under a given friction (what the
-    hybrid of :mod:`rolling_disk_env.hybrid` needs where the slip is zero) and under kinetic friction."""
+    hybrid (:func:`rolling_disk_env.engine.contact_phase`) needs where the slip is zero) and under kinetic friction."""
     sliding = d.derive_sliding()
     model = ("x", "tau_spin", "tau_steer", "f1", "f2", "m", "g", "r")
     velocities = [d.dc1, d.dc2, d.dphi, d.dtheta, d.dpsi]
@@ -430,7 +430,7 @@ def generate_sliding() -> str:
             "def kinetic_friction(x, mu, r):",
             '    """(f1, f2) = -mu v / |v|, Coulomb\'s kinetic friction per unit normal force, opposing the slip',
             "    v; zero at zero slip, where the kinetic law gives no direction (there the Coulomb hybrid rolls, or",
-            '    starts sliding with the friction the rolling contact needs: rolling_disk_env.hybrid)."""',
+            '    starts sliding with the friction the rolling contact needs: engine.contact_phase)."""',
             "    v1, v2 = slip_velocity(x, r)",
             f"    slip_speed = {speed}",
             f"    return ({law}) if slip_speed > 0.0 else (0.0, 0.0)",

@@ -38,7 +38,7 @@ def slip_velocity(x, r):
 def kinetic_friction(x, mu, r):
     """(f1, f2) = -mu v / |v|, Coulomb's kinetic friction per unit normal force, opposing the slip
     v; zero at zero slip, where the kinetic law gives no direction (there the Coulomb hybrid rolls, or
-    starts sliding with the friction the rolling contact needs: rolling_disk_env.hybrid)."""
+    starts sliding with the friction the rolling contact needs: engine.contact_phase)."""
     v1, v2 = slip_velocity(x, r)
     slip_speed = sqrt(v1*v1 + v2*v2)
     return (-mu*v1/slip_speed, -mu*v2/slip_speed) if slip_speed > 0.0 else (0.0, 0.0)
