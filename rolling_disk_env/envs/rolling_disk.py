@@ -181,6 +181,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._out = self._batch.outputs()
         self._reset_mask = np.ones(1, dtype=bool)
         self._term_keys = [f"reward_{name}" for name in self.task.reward_weights]
+        first = self._batch.contact_rows
+        # Under the "sliding" and "coulomb" contacts, the 10-state's rows of the info block.
+        self._state_rows = None if first is None else np.array([0, 1, 2, 3, 4, first, first + 1, 5, 6, 7])
         self._renderer = None
         self._track = None
         self.params: DiskParams | None = None
@@ -200,7 +203,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._track = None if self.render_mode is None else deque([tuple(batch.states[:2, 0])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
-        return self._out.observations[0].copy(), self._info(self._out.info[:, 0].tolist(), False)
+        return self._out.observations[0].copy(), self._info(False)[0]
 
     def step(self, action):
         if not self._started:
@@ -209,42 +212,44 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         out = self._out
         if self._batch.step(actions, out) >= 0:
             raise ValueError(f"action must be finite numbers, got {action!r}")
-        values = out.info[:, 0].tolist()
         terminated = bool(out.flags[engine.TERMINATED, 0])
-        info = self._info(values, terminated)
+        info, reward = self._info(terminated)
         if self._track is not None:
             self._track.append(tuple(self._batch.states[:2, 0]))
         if self.render_mode == "human":
             self.render()
-        return out.observations[0].copy(), values[engine.REWARD], terminated, False, info
+        return out.observations[0].copy(), reward, terminated, False, info
 
     def _actions(self, action) -> np.ndarray:
         """The action as the engine takes it, a row of float32 (finiteness is checked by the engine)."""
-        if type(action) is np.ndarray and action.dtype == np.float32 and action.shape == self.action_space.shape:
+        if (
+            type(action) is np.ndarray
+            and action.dtype == np.float32
+            and action.shape == self.action_space.shape
+            and action.flags.c_contiguous
+        ):
             return action.reshape(1, -1)
         return checked_actions(action, self.action_space.shape).reshape(1, -1)
 
-    def _info(self, values: list[float], terminated: bool) -> dict:
-        """The info from the disk's column of the info block, as a list: the same keys at every step and reset."""
+    def _info(self, terminated: bool) -> tuple[dict, float]:
+        """The info, from a copy of the disk's column of the info block (its arrays are views of that copy), with the
+        same keys at every step and reset; and the reward."""
+        column = self._out.info[:, 0].copy()
+        values = column.tolist()
         first = self._batch.contact_rows
-        if first is None:
-            state, sliding, slip = values[:8], False, [0.0, 0.0]
-        else:
-            state, sliding = values[:5] + values[first : first + 2] + values[5:8], values[first + 4] > 0.0
-            slip = values[first + 2 : first + 4]
         info = {
-            "state": np.array(state),
+            "state": column[:8] if first is None else column[self._state_rows],
             "energy": values[engine.ENERGY],
-            "contact_force": np.array(values[engine.LAMBDA1 : engine.LAMBDA2 + 1]),
+            "contact_force": column[engine.LAMBDA1 : engine.LAMBDA2 + 1],
             "normal_force": values[engine.NORMAL_FORCE],
             "required_friction": values[engine.REQUIRED_FRICTION],
-            "sliding": sliding,
-            "slip_velocity": np.array(slip),
+            "sliding": first is not None and values[first + 4] > 0.0,
+            "slip_velocity": np.zeros(2) if first is None else column[first + 2 : first + 4],
             "is_success": bool(self._out.flags[engine.SUCCESS, 0]),
             "termination": int(values[engine.STATUS]) if terminated else 0,
         }
         info.update(zip(self._term_keys, values[engine.TERMS :]))
-        return info
+        return info, values[engine.REWARD]
 
     def render(self):
         if self.render_mode is None:
