@@ -66,6 +66,15 @@ def model_argument(value: str) -> tuple[str, Path]:
     return task, Path(path)
 
 
+def training_command(model: Path) -> str:
+    """How a model was trained: its run folder's ``command.txt`` (train.py's), the interpreter's path left out."""
+    path = model.parent / "command.txt"
+    if not path.exists():
+        return f"`{model}`"
+    _, _, arguments = path.read_text().strip().partition(" ")
+    return f"`python {arguments}`"
+
+
 def main() -> None:
     args = arguments(
         __doc__,
@@ -78,6 +87,7 @@ def main() -> None:
         },
     )
     episodes = 10 if args.quick else 100
+    trained = [f"- `{path.parent.name}`: {training_command(path)}" for _, path in args.model]
     rows = []
     for task in sorted(TASKS):
         rows += rows_for(make_agent("baseline", task), "classical", task, episodes)
@@ -99,6 +109,13 @@ def main() -> None:
             table(
                 ["task", "agent", "success, rolling", "mu", "would slide", "success, coulomb", "steps sliding"], rows
             ),
+            "",
+            "Agents: `classical`, the task's controller of `agents/baselines.py`; the trained ones, by run folder, "
+            "from:"
+            if trained
+            else "Agents: `classical`, the task's controller of `agents/baselines.py`.",
+            "",
+            *trained,
         ],
         out=args.out,
     )
