@@ -163,6 +163,21 @@ def test_finite_actions_beyond_float32_are_clipped_like_any_other():
     assert far._batch.states[7, 0] == near._batch.states[7, 0] == pytest.approx(-4 * 10.0 / 5.0 * 0.02)
 
 
+def test_an_action_array_of_any_layout_steps_as_its_contiguous_copy():
+    # The step's compiled function is looked up once for a C-contiguous float32 action (envs.batch.entry_point): a
+    # strided view, a Fortran-ordered or a float64 array must be copied to that layout first, not read as it.
+    spin = np.array([0.5, 9.0, -0.25, 9.0], dtype=np.float32)
+    actions = [spin[::2], np.asfortranarray(spin[::2]), spin[::2].astype(np.float64), spin[::2].copy()]
+    states = []
+    for action in actions:
+        env = make().unwrapped
+        env.reset(seed=0)
+        env.step(action)
+        states.append(env._batch.states[:, 0].copy())
+    for state in states[:-1]:
+        np.testing.assert_array_equal(state, states[-1])
+
+
 @pytest.mark.parametrize("task", sorted(TASKS))
 def test_info_has_the_same_keys_at_every_step(task):
     # As Gymnasium's MuJoCo envs: wrappers that stack infos over steps and envs (Tianshou's, TorchRL's) need every
