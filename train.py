@@ -2,9 +2,10 @@
 
 Hyperparameters come from agents/hyperparams/<algo>.yml, rl-baselines3-zoo's format, in the block of the task's
 env id (RollingDiskUpright-v0, RollingDiskCircle-v0). The run directory (--out) receives model.zip, best_model.zip
-(the best periodic evaluation), vecnormalize.pkl, config.yml (the hyperparameters used), command.txt, TensorBoard
-logs in tb/ (tensorboard --logdir runs/) and results.md: mean +- std return and success rate over seeded
-evaluation episodes of the trained agent, the passive disk and the task's classical baseline. Ctrl-C stops
+(the best periodic evaluation, with best_vecnormalize.pkl), vecnormalize.pkl, config.yml (the hyperparameters
+used), command.txt, TensorBoard logs in tb/ (tensorboard --logdir runs/) and results.md: mean +- std return and
+success rate over seeded evaluation episodes of the trained agent, the passive disk and the task's classical
+baseline. Ctrl-C stops
 training and still saves and evaluates the model.
 
 examples:

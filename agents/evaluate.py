@@ -84,15 +84,23 @@ class NormalizedPolicy:
         return self.model.predict(observation, deterministic=deterministic)
 
 
+def normalization_file(model: Path) -> Path:
+    """Where the observation statistics of a saved model are: ``best_vecnormalize.pkl`` for ``best_model.zip`` (the
+    statistics of the training at the evaluation that found it the best: they go on changing after it), where there
+    is one, else ``vecnormalize.pkl`` (the end of the training's, saved with ``model.zip``)."""
+    best = model.parent / "best_vecnormalize.pkl"
+    return best if model.stem == "best_model" and best.exists() else model.parent / "vecnormalize.pkl"
+
+
 def load_agent(path: Path):
-    """A saved model (``.zip``) with ``vecnormalize.pkl`` from its folder, if there is one."""
+    """A saved model (``.zip``) with its observation statistics (:func:`normalization_file`), if there are any."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     run = path.parent
     algo = (run / "algo.txt").read_text().strip() if (run / "algo.txt").exists() else "ppo"
     model = ALGORITHMS[algo].load(path, device="cpu")
     normalize = None
-    stats = run / "vecnormalize.pkl"
+    stats = normalization_file(path)
     if stats.exists():
         # VecNormalize.save pickles the statistics without the training envs; normalize_obs needs only those.
         with open(stats, "rb") as handle:

@@ -208,7 +208,8 @@ class PeriodicEvaluation(BaseCallback):
     """Evaluates the policy every ``every`` environment steps, as SB3's ``EvalCallback`` does, but on the native
     vector env with all episodes at once (:func:`agents.evaluate.evaluate`: one policy call per step for all of
     them, instead of one per episode and step): the same seeded episodes each time, deterministic actions, with the
-    training's observation normalization. Keeps the best model (``best_model.zip``), the evaluations
+    training's observation normalization. Keeps the best model (``best_model.zip``, with the normalization's
+    statistics of that moment in ``best_vecnormalize.pkl``: :func:`agents.evaluate.normalization_file`), the evaluations
     (``eval/evaluations.npz``: ``timesteps``, ``results`` (returns), ``successes``, as EvalCallback writes them),
     logs ``eval/mean_reward`` and ``eval/success_rate``, and hands ``(num_timesteps, mean return, success rate)`` to
     the listeners.
@@ -251,7 +252,9 @@ class PeriodicEvaluation(BaseCallback):
         self.logger.record("eval/success_rate", success_rate)
         if mean_return > self.best:
             self.best = mean_return
-            self.model.save(self.out / "best_model")
+            self.model.save(self.out / "best_model.zip")
+            if normalize is not None:  # the statistics this model was evaluated with: they go on changing
+                normalize.save(str(self.out / "best_vecnormalize.pkl"))
         for listener in self.listeners:
             listener(self.num_timesteps, mean_return, success_rate)
         return True
@@ -303,7 +306,8 @@ def train(
     """Trains ``algo`` on ``task`` with one zoo block of hyperparameters, then evaluates it against the baselines.
 
     The run directory ``out`` receives ``config.yml`` (the block as used, keyed by the task's id), ``command.txt``,
-    ``algo.txt``, TensorBoard logs in ``tb/``, ``best_model.zip`` and ``eval/evaluations.npz``
+    ``algo.txt``, TensorBoard logs in ``tb/``, ``best_model.zip`` (and ``best_vecnormalize.pkl``, with ``normalize``)
+    and ``eval/evaluations.npz``
     (:class:`PeriodicEvaluation`: every 10,000 steps, 10 episodes), ``model.zip``, ``vecnormalize.pkl`` (with
     ``normalize``) and ``results.md``.
     Ctrl-C (KeyboardInterrupt) during training stops it; the model trained so far is saved and evaluated.

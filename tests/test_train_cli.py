@@ -3,6 +3,7 @@ directory printed, evaluations reported while training, and Ctrl-C handled; and 
 sweeps call it."""
 
 import math
+import pickle
 import signal
 import subprocess
 import sys
@@ -14,6 +15,7 @@ import yaml
 
 import rolling_disk_env as rd
 import train
+from agents import evaluate
 from agents.evaluate import ALGORITHMS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -124,6 +126,12 @@ def test_a_run_prints_its_directory_and_every_evaluation(tmp_path):
     assert "rollout/" in process.stdout  # --verbose 1: SB3's training logs
     for name in ("model.zip", "best_model.zip", "vecnormalize.pkl", "config.yml", "command.txt", "results.md"):
         assert (out / name).exists(), name
+    # The best model keeps the observation statistics it was evaluated with, which later training changes.
+    best = pickle.loads((out / "best_vecnormalize.pkl").read_bytes())
+    final = pickle.loads((out / "vecnormalize.pkl").read_bytes())
+    assert best.obs_rms.count < final.obs_rms.count
+    assert evaluate.normalization_file(out / "best_model.zip") == out / "best_vecnormalize.pkl"
+    assert evaluate.normalization_file(out / "model.zip") == out / "vecnormalize.pkl"
     assert list((out / "tb").iterdir())
     assert "RollingDiskUpright-v0" in yaml.safe_load((out / "config.yml").read_text())
 
