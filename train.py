@@ -5,8 +5,7 @@ env id (RollingDiskUpright-v0, RollingDiskCircle-v0). The run directory (--out) 
 (the best periodic evaluation, with best_vecnormalize.pkl), vecnormalize.pkl, config.yml (the hyperparameters
 used), command.txt, TensorBoard logs in tb/ (tensorboard --logdir runs/) and results.md: mean +- std return and
 success rate over seeded evaluation episodes of the trained agent, the passive disk and the task's classical
-baseline. Ctrl-C stops
-training and still saves and evaluates the model.
+baseline. Ctrl-C stops training and still saves and evaluates the model.
 
 examples:
   python train.py                                   # PPO on task upright: the README's main job
