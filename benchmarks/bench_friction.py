@@ -14,7 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from _common import arguments, cpu, table, write_markdown
+from _common import arguments, table, write_markdown
 
 from agents.evaluate import evaluate, load_agent, make_agent
 from rolling_disk_env.tasks import TASKS
@@ -99,7 +99,7 @@ def main() -> None:
         "Would the agents slide? Success on real surfaces",
         "python benchmarks/bench_friction.py " + " ".join(f"--model {t}={p}" for t, p in args.model),
         [
-            f"CPU: {cpu()}. {episodes} seeded evaluation episodes per row (seeds from 10000, as `agents.evaluate`).",
+            f"{episodes} seeded evaluation episodes per row (seeds from 10000, as `agents.evaluate`).",
             "",
             "Per agent and friction coefficient mu: its success on the ideal rolling contact; the share of episodes "
             "whose rolling contact needed more than mu at some step (`info['required_friction']`: these would "
