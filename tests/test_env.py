@@ -314,3 +314,26 @@ def test_stable_baselines3_subproc_vec_env_runs():
         assert observations.shape == (2, 4) and np.all(np.isfinite(rewards))
     finally:
         vec.close()
+
+
+def test_tracking_success_holds_past_the_first_rows_of_sums_in_an_endless_episode():
+    # Without truncation the circle's tracking sums grow as the episode goes on (envs.batch: the rows double when a
+    # step could write past them, looked at only as often as a step could get there): is_success is still the mean
+    # radial error over the last half of the episode within 0.25 m, recomputed here from the states.
+    from agents.baselines import CircleLQR
+
+    env = gym.make(rd.TASK_IDS["circle"], max_episode_steps=None).unwrapped
+    observation, _ = env.reset(seed=2)
+    first_rows = env._batch.error_sums.shape[1]
+    centre, radius = np.array([env.goal["cx"], env.goal["cy"]]), env.goal["radius"]
+    controller = CircleLQR(task="circle")
+    errors, successes = [], []
+    for _ in range(2 * first_rows + 10):
+        observation, _, terminated, _, info = env.step(controller.predict(observation)[0])
+        assert not terminated
+        errors.append(abs(np.hypot(*(info["state"][:2] - centre)) - radius))
+        successes.append(info["is_success"])
+    assert env._batch.error_sums.shape[1] >= 2 * first_rows
+    means = [np.mean(errors[(step + 1) // 2 : step + 1]) for step in range(len(errors))]
+    assert successes[first_rows:] == [mean <= 0.25 for mean in means[first_rows:]]
+    assert any(successes[first_rows:])  # the controller holds the circle
