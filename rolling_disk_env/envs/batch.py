@@ -276,6 +276,7 @@ class DiskBatch:
         # Without truncation, the rows grow as episodes get longer.
         tracked = task.success == TRACK
         self._growing = tracked and max_episode_steps is None
+        self._unchecked = 0  # steps before the rows of error_sums must be looked at again (_grow_tracking)
         self.error_sums = np.zeros((width, (max_episode_steps or 1024) + 2 if tracked else 1))
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, config.state_size), np.nan)
@@ -365,9 +366,8 @@ class DiskBatch:
         Returns:
             The first disk whose action is not finite (then nothing was stepped), or -1.
         """
-        if self._growing and self.steps[: self.num_envs].max() + 1 >= self.error_sums.shape[1]:
-            self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
-            self._bundle()
+        if self._growing:
+            self._grow_tracking()
         arguments = (actions, self._shares, self.setup, out.shares)
         if self.choice is None:
             return self._step(False, arguments)(*arguments)
@@ -376,6 +376,20 @@ class DiskBatch:
         bad = self._step(threaded, arguments)(*arguments)
         self.choice.record(threaded, time.perf_counter() - start)
         return bad
+
+    def _grow_tracking(self) -> None:
+        """Doubles the error sums' rows before a step could write past them (episodes without truncation). A step
+        adds at most one to each step count, so after a look at the longest episode the next is due when it could
+        have reached the end of the rows: the look (a max over the disks) took several microseconds of a single
+        env's step."""
+        self._unchecked -= 1
+        if self._unchecked > 0:
+            return
+        longest = int(self.steps[: self.num_envs].max())
+        if longest + 1 >= self.error_sums.shape[1]:
+            self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
+            self._bundle()
+        self._unchecked = self.error_sums.shape[1] - 1 - longest
 
     def _step(self, threaded: bool, arguments: tuple):
         """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
