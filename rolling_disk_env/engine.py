@@ -494,14 +494,13 @@ def hybrid_contact(x, u, mu, coulomb, disk):
     rolls)."""
     m, g, r = disk
     _, rolling, law = contact_phase(x, u, mu, coulomb, disk)
-    v1, v2 = sliding.slip_velocity(x, r)
     if rolling:
+        v1, v2 = sliding.slip_velocity(x, r)
         energy, force1, force2, normal, required = contact(rolling_part(x), u[0], u[1], m, g, r)
         return energy, force1, force2, normal, required, v1, v2, 0.0
-    f1, f2 = hybrid_friction(x, mu, law[1], law[2], law[3], r)
-    energy, normal, v1, v2 = sliding.friction_diagnostics(x, u[0], u[1], f1, f2, m, g, r)
-    required = math.sqrt(f1 * f1 + f2 * f2) if normal > 0.0 else math.inf
-    return energy, normal * f1, normal * f2, normal, required, v1, v2, 1.0
+    energy, normal, force1, force2, v1, v2 = hybrid_diagnostics(x, u, mu, law[1], law[2], law[3], disk)
+    required = math.sqrt(force1 * force1 + force2 * force2) / normal if normal > 0.0 else math.inf
+    return energy, force1, force2, normal, required, v1, v2, 1.0
 
 
 @kernel

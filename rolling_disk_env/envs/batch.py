@@ -258,6 +258,10 @@ class DiskBatch:
         self._steps = (getattr(steps, f"step_{method}"), getattr(steps, f"step_{method}_threads"))
         self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
         """The first row of ``engine.SLIDING_INFO`` in the info block (None under the ``"rolling"`` contact)."""
+        first = self.contact_rows
+        self.state_rows = slice(0, 8) if first is None else np.array([0, 1, 2, 3, 4, first, first + 1, 5, 6, 7])
+        """The rows of the disks' state in the info block: the 8-state, or the 10-state under the ``"sliding"`` and
+        ``"coulomb"`` contacts (the centre's velocity among the rows of ``engine.SLIDING_INFO``)."""
         self._resets = (steps.reset, functools.partial(steps.reset_threads, self.share))
         self.choice = ThreadChoice() if self.threads > 1 else None
         """How a batch of several shares steps them (None: one share, on the calling thread)."""

@@ -181,9 +181,6 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._out = self._batch.outputs()
         self._reset_mask = np.ones(1, dtype=bool)
         self._term_keys = [f"reward_{name}" for name in self.task.reward_weights]
-        first = self._batch.contact_rows
-        # Under the "sliding" and "coulomb" contacts, the 10-state's rows of the info block.
-        self._state_rows = None if first is None else np.array([0, 1, 2, 3, 4, first, first + 1, 5, 6, 7])
         self._renderer = None
         self._track = None
         self.params: DiskParams | None = None
@@ -238,7 +235,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         values = column.tolist()
         first = self._batch.contact_rows
         info = {
-            "state": column[:8] if first is None else column[self._state_rows],
+            "state": column[self._batch.state_rows],
             "energy": values[engine.ENERGY],
             "contact_force": column[engine.LAMBDA1 : engine.LAMBDA2 + 1],
             "normal_force": values[engine.NORMAL_FORCE],

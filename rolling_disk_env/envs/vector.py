@@ -171,16 +171,11 @@ class RollingDiskVectorEnv(VectorEnv):
         """The batched info of ``out``: every key, each with its mask ``present`` (None: every sub-environment)."""
         info, first = out.info, self._batch.contact_rows
         if first is None:
-            state, sliding, slip = (
-                info[: engine.STATE + 8].T,
-                np.zeros(self.num_envs, bool),
-                np.zeros((self.num_envs, 2)),
-            )
+            sliding, slip = np.zeros(self.num_envs, bool), np.zeros((self.num_envs, 2))
         else:
-            state = np.concatenate([info[0:5], info[first : first + 2], info[5:8]]).T
             sliding, slip = info[first + 4] > 0.0, info[first + 2 : first + 4].T
         infos = {
-            "state": state,
+            "state": info[self._batch.state_rows].T,
             "energy": info[engine.ENERGY],
             "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
             "normal_force": info[engine.NORMAL_FORCE],
