@@ -7,8 +7,8 @@ Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Py
 * the pieces every task's step shares, below: the action's torques, the error-controlled integration of a control
   period (``"dopri5"``), the contact checks, the domain check, the success rule;
 * the fused step of each task (``_generated/<task>.py``, written by :mod:`rolling_disk_env.codegen` from a template):
-  a share of a batch of disks through a control period, in one loop over the disks that the compiler vectorizes
-  (integration, contact forces and checks, the task's termination, reward terms, success and observation), called
+  a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
+  (integration; contact forces and checks, the task's termination, reward terms, success and observation), called
   for one share on the calling thread or for several at once on numba's threads;
 * the batch loops of the model API (:mod:`rolling_disk_env.dynamics`, :func:`rolling_disk_env.simulate`).
 

@@ -108,9 +108,9 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
 
 @kernel
 def step_euler_share(k, actions, batch, setup, out):
-    """One control period with euler of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep and each disk's outputs.
+    """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
+    over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep, then each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -154,10 +154,21 @@ def step_euler_share(k, actions, batch, setup, out):
             lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
         )
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
-        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
-        # the task's termination, reward terms, success and observation, into its column of info and flags.
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        info[STATUS, k, i] = code
+    # The outputs, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
+    # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        code = np.int64(info[STATUS, k, i])
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
@@ -214,9 +225,9 @@ def step_euler_threads(actions, batch, setup, out):
 
 @kernel
 def step_symplectic_euler_share(k, actions, batch, setup, out):
-    """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep and each disk's outputs.
+    """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
+    over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep, then each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -260,10 +271,21 @@ def step_symplectic_euler_share(k, actions, batch, setup, out):
             lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
         )
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
-        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
-        # the task's termination, reward terms, success and observation, into its column of info and flags.
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        info[STATUS, k, i] = code
+    # The outputs, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
+    # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        code = np.int64(info[STATUS, k, i])
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
@@ -320,9 +342,9 @@ def step_symplectic_euler_threads(actions, batch, setup, out):
 
 @kernel
 def step_rk4_share(k, actions, batch, setup, out):
-    """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep and each disk's outputs.
+    """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
+    over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep, then each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -366,10 +388,21 @@ def step_rk4_share(k, actions, batch, setup, out):
             lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
         )
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
-        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
-        # the task's termination, reward terms, success and observation, into its column of info and flags.
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        info[STATUS, k, i] = code
+    # The outputs, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
+    # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        code = np.int64(info[STATUS, k, i])
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
@@ -426,9 +459,9 @@ def step_rk4_threads(actions, batch, setup, out):
 
 @kernel
 def step_dopri5_share(k, actions, batch, setup, out):
-    """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep and each disk's outputs.
+    """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
+    over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep, then each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -456,10 +489,21 @@ def step_dopri5_share(k, actions, batch, setup, out):
             x, period, lanes[STEP_SIZE, k, i], tau_spin, tau_steer, m, g, r, rtol, atol
         )
         x, code = engine.in_domain(x, new, RUNNING if ok else SUBSTEP_LIMIT)
-        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
-        # the task's termination, reward terms, success and observation, into its column of info and flags.
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        info[STATUS, k, i] = code
+    # The outputs, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
+    # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        code = np.int64(info[STATUS, k, i])
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
@@ -516,9 +560,9 @@ def step_dopri5_threads(actions, batch, setup, out):
 
 @kernel
 def step_contact_share(k, actions, batch, setup, out):
-    """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch: the action's torques, then, in one
-    loop over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep and each disk's outputs.
+    """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch: the action's torques, then, in loops
+    over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
+    last (or only) substep, then each disk's outputs.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -547,10 +591,10 @@ def step_contact_share(k, actions, batch, setup, out):
         state, code = engine.advance_contact(state, period, substeps, torques, friction, coulomb, disk)
         x = engine.rolling_part(state)
         lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
-        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
-        # the task's termination, reward terms, success and observation, into its column of info and flags.
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
+        # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.hybrid_contact(state, torques, friction, coulomb, disk)
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = (LIFTED_OFF if not contact[3] > 0.0 else RUNNING) if code == RUNNING else code

@@ -183,11 +183,14 @@ class RollingDiskVectorEnv(VectorEnv):
             "sliding": sliding,
             "slip_velocity": slip,
             "is_success": out.flags[engine.SUCCESS],
-            "termination": np.where(out.flags[engine.TERMINATED], info[engine.STATUS], 0).astype(np.int64),
+            "termination": info[engine.STATUS].astype(np.int64),  # RUNNING (0) where not terminated
         }
         infos.update(zip(self._term_keys, info[engine.TERMS :]))
         mask = np.ones(self.num_envs, dtype=bool) if present is None else present
-        return {key: value for name, value in infos.items() for key, value in ((name, value), (f"_{name}", mask))}
+        masked = {}
+        for key, value in infos.items():
+            masked[key], masked["_" + key] = value, mask
+        return masked
 
     def _final(self, out: Outputs, ended: np.ndarray) -> dict:
         """SAME_STEP's ``final_obs`` and ``final_info`` of the sub-environments that ended, taken from ``out`` before
