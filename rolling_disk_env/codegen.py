@@ -611,7 +611,7 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
         lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
         lanes[STEP_SIZE, i] = config[PERIOD]
         steps[i] = 0
-        error_sums[i, 0] = 0.0
+        error_sums[i, 0] = lanes[TRACKING_SUM, i] = lanes[HALF_SUM, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
 {report}
@@ -714,7 +714,7 @@ def generate_steps(task) -> str:
                 f"        info[OBSERVATION + {j}, k, i] = min(max(observation[{j}], -bounds[{j}]), bounds[{j}])"
                 for j in range(observations)
             ),
-            "{tracking}": "\n        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)"
+            "{tracking}": "\n        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)"
             if rule == "track"
             else "",
             "{success}": success,
@@ -781,10 +781,10 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, LIFTED_OFF,",
-            "    MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL,",
-            "    RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,",
-            "    TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,",
+            "    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1, LAMBDA2,",
+            "    LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD,",
+            "    RTOL, RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,",
+            "    TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
             f"import {module.__name__} as task",

@@ -45,16 +45,18 @@ TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "subst
 """``info["termination"]`` of each code."""
 
 STATE = 0
-TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_ERROR = range(8, 16)
+TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_SUM = range(8, 16)
 PREVIOUS = 16
 CENTRE_VELOCITY = 24
-LANES = 26
+HALF_SUM = 26
+LANES = 27
 """Rows of a batch's *lanes* array (a column per disk, and idle padding columns), which the step reads and writes in
 place:
 the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step size (s),
-the task's tracking error after the last step, with substeps the state at the start of the control period (8 rows
+the task's tracking error summed over the episode (TRACKING_SUM), with substeps the state at the start of the control period (8 rows
 from PREVIOUS), and under the ``"sliding"`` and ``"coulomb"`` contacts the centre's horizontal velocity (dc1, dc2)
-(2 rows from CENTRE_VELOCITY), with which the 8 state rows make the 10-state. A loop over the disks reads and writes
+(2 rows from CENTRE_VELOCITY), with which the 8 state rows make the 10-state, and the tracking error summed over the
+first half of the episode (HALF_SUM). A loop over the disks reads and writes
 rows, so it can vectorize."""
 
 ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD, STATUS = range(8, 15)
@@ -285,15 +287,19 @@ def steady_circle(radius, speed, g, r):
 
 @inline_kernel
 def track(error_sums, lanes, steps, flags, k, disks, bound):
-    """The success rule TRACK for the ``disks`` disks of share k that are still running (flag SUCCESS set): adds
-    each one's tracking error of this step (row TRACKING_ERROR) to its running sums (its row of ``error_sums``, an
-    entry per step: the entries a disk reads and writes stay in a few cache lines) and keeps its flag where the mean
-    error over the last half of the episode is within ``bound``."""
+    """The success rule TRACK for the ``disks`` disks of share k that are still running (flag SUCCESS set): keeps
+    each one's sum of the tracking error over the episode (row TRACKING_SUM, which the step adds this step's error
+    to) in its row of ``error_sums`` (an entry per step), and its flag where the mean error over the last half of the
+    episode, ``(S[step] - S[step // 2]) / (step - step // 2)``, is within ``bound``. ``S[step // 2]`` is read from
+    ``error_sums`` only when it moves on, every other step, into row HALF_SUM: a disk's row is 4 KB from the next
+    disk's, so each read of it is a cache miss."""
     for i in range(disks):
         if flags[SUCCESS, k, i]:
             step, half = steps[k, i], steps[k, i] // 2
-            error_sums[k, i, step] = error_sums[k, i, step - 1] + lanes[TRACKING_ERROR, k, i]
-            flags[SUCCESS, k, i] = (error_sums[k, i, step] - error_sums[k, i, half]) / max(1, step - half) <= bound
+            total = error_sums[k, i, step] = lanes[TRACKING_SUM, k, i]
+            if step % 2 == 0:
+                lanes[HALF_SUM, k, i] = error_sums[k, i, half]
+            flags[SUCCESS, k, i] = (total - lanes[HALF_SUM, k, i]) / max(1, step - half) <= bound
 
 
 # The "sliding" and "coulomb" contacts: a disk's 10-state x = (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi)

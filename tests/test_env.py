@@ -316,6 +316,28 @@ def test_stable_baselines3_subproc_vec_env_runs():
         vec.close()
 
 
+def test_tracking_success_is_the_mean_error_over_the_last_half_at_every_step():
+    # is_success of circle at every step of an episode (the LQR, then pushed by noisy actions), against the mean radial
+    # error over the last half of the episode so far recomputed from the states: the start (error above 0.25 m)
+    # fails, the rest holds, and the flip comes where the recomputed means say.
+    from agents.baselines import CircleLQR
+
+    env = gym.make(rd.TASK_IDS["circle"]).unwrapped
+    observation, _ = env.reset(seed=1)
+    centre, radius = np.array([env.goal["cx"], env.goal["cy"]]), env.goal["radius"]
+    controller, rng = CircleLQR(task="circle"), np.random.default_rng(1)
+    errors, successes = [], []
+    for step in range(500):
+        action = controller.predict(observation)[0] + (rng.normal(0.0, 0.6, 2) if step > 100 else 0.0)
+        observation, _, terminated, _, info = env.step(np.clip(action, -1, 1).astype(np.float32))
+        assert not terminated
+        errors.append(abs(np.hypot(*(info["state"][:2] - centre)) - radius))
+        successes.append(info["is_success"])
+    means = [np.mean(errors[(step + 1) // 2 : step + 1]) for step in range(len(errors))]
+    assert successes == [mean <= 0.25 for mean in means]
+    assert not successes[0] and successes[-1]
+
+
 def test_tracking_success_holds_past_the_first_rows_of_sums_in_an_endless_episode():
     # Without truncation the circle's tracking sums grow as the episode goes on (envs.batch: the rows double when a
     # step could write past them, looked at only as often as a step could get there): is_success is still the mean

@@ -16,10 +16,10 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, LIFTED_OFF,
-    MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL,
-    RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,
-    TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,
+    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1, LAMBDA2,
+    LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD,
+    RTOL, RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,
+    TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.circle as task
@@ -85,7 +85,7 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
         lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
         lanes[STEP_SIZE, i] = config[PERIOD]
         steps[i] = 0
-        error_sums[i, 0] = 0.0
+        error_sums[i, 0] = lanes[TRACKING_SUM, i] = lanes[HALF_SUM, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
         info[0, i], info[1, i] = x[0], x[1]
@@ -193,7 +193,7 @@ def step_euler_share(k, actions, batch, setup, out):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
+        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
@@ -310,7 +310,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
+        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
@@ -427,7 +427,7 @@ def step_rk4_share(k, actions, batch, setup, out):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
+        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
@@ -528,7 +528,7 @@ def step_dopri5_share(k, actions, batch, setup, out):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
+        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
@@ -619,7 +619,7 @@ def step_contact_share(k, actions, batch, setup, out):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_ERROR, k, i] = task.tracking_error(x, goal, settings)
+        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
         info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
         info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
         info[CONTACT_ROWS + 4, k, i] = contact[7]

@@ -16,10 +16,10 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1, LAMBDA2, LIFTED_OFF,
-    MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL,
-    RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,
-    TERMINATED, TERMS, TRACKING_ERROR, TRUNCATED,
+    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1, LAMBDA2,
+    LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION, REWARD,
+    RTOL, RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER,
+    TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.goto as task
@@ -85,7 +85,7 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
         lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
         lanes[STEP_SIZE, i] = config[PERIOD]
         steps[i] = 0
-        error_sums[i, 0] = 0.0
+        error_sums[i, 0] = lanes[TRACKING_SUM, i] = lanes[HALF_SUM, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
         info[0, i], info[1, i] = x[0], x[1]
