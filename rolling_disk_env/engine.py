@@ -291,7 +291,7 @@ def track(error_sums, lanes, steps, flags, k, disks, bound):
     to) in its row of ``error_sums`` (an entry per step), and its flag where the mean error over the last half of the
     episode, ``(S[step] - S[step // 2]) / (step - step // 2)``, is within ``bound``. ``S[step // 2]`` is read from
     ``error_sums`` only when it moves on, every other step, into row HALF_SUM: a disk's row is 4 KB from the next
-    disk's, so each read of it is a cache miss."""
+    disk's (500-step episodes), so each read of it is a cache miss."""
     for i in range(disks):
         if flags[SUCCESS, k, i]:
             step, half = steps[k, i], steps[k, i] // 2
