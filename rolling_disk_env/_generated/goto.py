@@ -85,7 +85,7 @@ def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
         lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
         lanes[STEP_SIZE, i] = config[PERIOD]
         steps[i] = 0
-        error_sums[i, 0] = lanes[TRACKING_SUM, i] = lanes[HALF_SUM, i] = 0.0
+        lanes[TRACKING_SUM, i] = lanes[HALF_SUM, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
         info[0, i], info[1, i] = x[0], x[1]
