@@ -516,10 +516,11 @@ the outputs; the contacts' loop (scalar: the modes branch) goes on into the outp
 STEP_TEMPLATE = """
 
 @kernel
-def step_{method}_share(k, actions, batch, setup, out):
+def step_{method}_share(k, actions, batch, setup, out, resets):
     \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs.
+    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -535,95 +536,101 @@ def step_{method}_share(k, actions, batch, setup, out):
     engine.action_torques(actions, actuators, lanes, k, disks)
 {advance}{handover}{finish}{track}
     engine.transpose(info, OBSERVATION, observations, k)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_{method}(actions, batch, setup, out):
+def step_{method}(actions, batch, setup, out, resets):
     \"\"\"Steps a batch (see :func:`step_{method}_share`), its shares one after the other on the calling thread;
     returns the first disk with a non-finite action (then nothing is stepped), or -1.\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
-            step_{method}_share(np.int64(k), actions, batch, setup, out)
+            step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @parallel_kernel
-def step_{method}_threads(actions, batch, setup, out):
+def step_{method}_threads(actions, batch, setup, out, resets):
     \"\"\":func:`step_{method}` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share).\"\"\"
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
-            step_{method}_share(np.int64(k), actions, batch, setup, out)
+            step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 """
 """The fused step of one task with one integrator, for a batch of disks."""
 
 RESET_TEMPLATE = """
 @kernel
-def reset(mask, rngs, uniforms, given, batch, setup, out):
-    \"\"\"Starts an episode in each disk of ``mask`` (see :func:`reset_disks`).\"\"\"
-    reset_disks(np.int64(0), np.int64(mask.shape[0]), mask, rngs, uniforms, given, batch, setup, out)
+def reset(resets, batch, setup, out):
+    \"\"\"Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`), the shares one after the
+    other on the calling thread.\"\"\"
+    for k in range(batch[0].shape[1]):
+        reset_share(np.int64(k), resets, batch, setup, out)
 
 
 @parallel_kernel
-def reset_threads(share, mask, rngs, uniforms, given, batch, setup, out):
-    \"\"\":func:`reset` for a batch in shares of ``share`` disks, a share per thread.\"\"\"
-    for k in prange((mask.shape[0] + share - 1) // share):
-        start, stop = np.int64(k * share), np.int64(min(mask.shape[0], (k + 1) * share))
-        reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out)
+def reset_threads(resets, batch, setup, out):
+    \"\"\":func:`reset` with the shares on numba's threads, a share per thread.\"\"\"
+    for k in prange(batch[0].shape[1]):
+        reset_share(np.int64(k), resets, batch, setup, out)
 
 
 @kernel
-def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
-    \"\"\"Starts an episode in each disk of ``mask`` from start to stop - 1: its disk constants (those randomized, in
-    the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all from the
-    episode's uniforms in [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of
+def reset_share(k, resets, batch, setup, out):
+    \"\"\"Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants (those
+    randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all
+    from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows; a row of
-    ``given`` (8 floats; NaN: none) replaces the initial state. The arrays of ``batch``, ``setup`` and ``out`` (see
-    :func:`step_rk4_share`) come whole: ``[row, i]`` for disk i.\"\"\"
+    ``given`` (8 floats; NaN: none) replaces the initial state. ``resets`` holds the arrays of
+    :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i of share k at ``k * columns +
+    i``); ``batch``, ``setup`` and ``out`` are split into shares as :func:`step_rk4_share` takes them.\"\"\"
+    mask, rngs, uniforms, given = resets
     {unpack}
     options = {settings}
+    first = k * lanes.shape[2]
     values = np.empty(ranges.shape[0])
-    for i in range(start, stop):
-        if not mask[i]:
+    for i in range(min(lanes.shape[2], mask.shape[0] - first)):
+        d = first + i
+        if not mask[d]:
             continue
         if rngs.shape[0]:
             for j in range(uniforms.shape[1]):
-                uniforms[i, j] = pcg64.random(rngs[i])
+                uniforms[d, j] = pcg64.random(rngs[d])
         drawn = 0
-        for k in range(3):
-            low, high = disk_ranges[k, 0], disk_ranges[k, 1]
-            lanes[MASS + k, i] = low
-            if disk_ranges[k, 2]:
-                lanes[MASS + k, i] = low + (high - low) * uniforms[i, drawn]
+        for j in range(3):
+            low, high = disk_ranges[j, 0], disk_ranges[j, 1]
+            lanes[MASS + j, k, i] = low
+            if disk_ranges[j, 2]:
+                lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
         for j in range(ranges.shape[0]):
-            values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[i, drawn + j]
-        disk = (lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
+            values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
+        disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])
         goal, x = task.start(values, disk, options)
-        if not np.isnan(given[i, 0]):
+        if not np.isnan(given[d, 0]):
             x = {given}
         for j in range(len(goal)):
-            goals[j, i] = goal[j]
+            goals[j, k, i] = goal[j]
 {store_state}
-        lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
-        lanes[STEP_SIZE, i] = config[PERIOD]
-        steps[i] = 0
-        lanes[TRACKING_SUM, i] = lanes[HALF_SUM, i] = 0.0
+        lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
+        lanes[STEP_SIZE, k, i] = config[PERIOD]
+        steps[k, i] = 0
+        lanes[TRACKING_SUM, k, i] = lanes[HALF_SUM, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
 {report}
-        info[REWARD, i] = 0.0
+        info[REWARD, k, i] = 0.0
         for j in range(TERMS, OBSERVATION):
-            info[j, i] = 0.0
+            info[j, k, i] = 0.0
         observation = task.observe(x, goal, options)
         for j in range(len(observation)):
-            info[OBSERVATION + j, i] = observations[i, j] = min(max(observation[j], -bounds[j]), bounds[j])
-        flags[TERMINATED, i] = False
-        flags[TRUNCATED, i] = False
-        flags[SUCCESS, i] = {success_at_start}
+            info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
+        flags[TERMINATED, k, i] = False
+        flags[TRUNCATED, k, i] = False
+        flags[SUCCESS, k, i] = {success_at_start}
 """
 """Starting episodes of one task."""
 
@@ -684,25 +691,23 @@ def generate_steps(task) -> str:
     success, success_at_start = _SUCCESS[rule]
     terms, observations = len(task.default_reward_weights), len(task.observation_names)
     reported = [*_items("x", 8), *_items("contact", 5), "code"]
-    fields = {  # the reset's arrays have a column per disk: [row, i]
-        "{given}": _row_tuple("given", 8),
+    fields = {  # the arrays of the step and the reset come in shares: [row, k, i]
+        "{given}": "(" + ", ".join(f"given[d, {j}]" for j in range(8)) + ")",
         "{unpack}": "\n    ".join(
             f"{', '.join(bundle._fields)} = {name}"
             for name, bundle in (("batch", BatchArrays), ("setup", SetupArrays), ("out", OutputArrays))
         ),
-        "{settings}": _row_tuple("settings", len(task.setting_names), row=False),
+        "{settings}": _row_tuple("settings", len(task.setting_names)),
         "{success_at_start}": success_at_start,
-        "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8),
-        "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8),
+        "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8, "k, i"),
+        "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8, "k, i"),
     }
-    step_fields = {  # the step's come in shares: [row, k, i]
+    step_fields = {
         **fields,
         "{state}": _row_tuple("lanes", 8, column="k, i"),
         "{state_substep}": _row_tuple("lanes", 8, column="k, i", indent=16),
         "{kept}": _row_tuple("lanes", 8, column="k, i", first="PREVIOUS + "),
         "{goal}": _row_tuple("goals", len(task.goal_names), column="k, i"),
-        "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8, "k, i"),
-        "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8, "k, i"),
     }
     finish = _fill(
         FINISH_TEMPLATE,
@@ -811,14 +816,11 @@ def _items(name: str, size: int) -> list[str]:
     return [f"{name}[{j}]" for j in range(size)]
 
 
-def _row_tuple(array: str, size: int, row: bool = True, column: str = "", first: str = "", indent: int = 8) -> str:
-    """``(array[i, 0], array[i, 1], ...)``, or ``(array[0, column], ...)`` (from row ``first`` + 0), or
-    ``(array[0], ...)`` (not ``row``): a tuple of ``size`` floats, which numba keeps in registers; four items a line
-    when long, for a statement indented by ``indent``."""
-    if column:
-        items = [f"{array}[{first}{j}, {column}]" for j in range(size)]
-    else:
-        items = [f"{array}[i, {j}]" if row else f"{array}[{j}]" for j in range(size)]
+def _row_tuple(array: str, size: int, column: str = "", first: str = "", indent: int = 8) -> str:
+    """``(array[0, column], array[1, column], ...)`` (from row ``first`` + 0), or ``(array[0], ...)`` (no
+    ``column``): a tuple of ``size`` floats, which numba keeps in registers; four items a line when long, for a
+    statement indented by ``indent``."""
+    items = [f"{array}[{first}{j}, {column}]" if column else f"{array}[{j}]" for j in range(size)]
     one_line = f"({', '.join(items)}{',' if size == 1 else ''})"
     if len(one_line) <= 110:
         return one_line
@@ -826,7 +828,7 @@ def _row_tuple(array: str, size: int, row: bool = True, column: str = "", first:
     return "(\n" + "".join(" " * (indent + 4) + f"{line}\n" for line in rows) + " " * indent + ")"
 
 
-def _stores(array: str, rows: list[str], sources: list[str], indent: int, column: str = "i") -> str:
+def _stores(array: str, rows: list[str], sources: list[str], indent: int, column: str = "k, i") -> str:
     """Lines writing ``sources`` (expressions) into ``column`` of ``array`` at ``rows``, four a line (two for long
     names)."""
     lines = []

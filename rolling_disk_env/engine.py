@@ -8,8 +8,9 @@ Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Py
   period (``"dopri5"``), the contact checks, the domain check, the success rule;
 * the fused step of each task (``_generated/<task>.py``, written by :mod:`rolling_disk_env.codegen` from a template):
   a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
-  (integration; contact forces and checks, the task's termination, reward terms, success and observation), called
-  for one share on the calling thread or for several at once on numba's threads;
+  (integration; contact forces and checks, the task's termination, reward terms, success and observation), then the
+  reset of the share's disks whose episodes start anew (Gymnasium's next-step autoreset), called for one share on the
+  calling thread or for several at once on numba's threads;
 * the batch loops of the model API (:mod:`rolling_disk_env.dynamics`, :func:`rolling_disk_env.simulate`).
 
 The single env and the vector env call the same generated functions, so they give the same transitions to the last
@@ -131,6 +132,25 @@ class OutputArrays(NamedTuple):
     observations: np.ndarray
     info: np.ndarray
     flags: np.ndarray
+
+
+class ResetArrays(NamedTuple):
+    """Which disks start a new episode, and what they draw it from (a row or an entry per disk, N in all; disk i of
+    share k at ``k * columns + i``).
+
+    Attributes:
+        mask: (N,) bool, the disks to reset.
+        rngs: (N, 4) uint64, each disk's PCG64 state (:mod:`rolling_disk_env.pcg64`), advanced by the draws; or (0, 4)
+            to take the draws from ``uniforms`` as they are.
+        uniforms: (N, draws) float64, each disk's uniforms in [0, 1) for its episode (overwritten by the draws).
+        given: (N, 8) float64 (or more columns, of which the first 8 are read), initial states that replace the
+            drawn ones; rows of NaN: none.
+    """
+
+    mask: np.ndarray
+    rngs: np.ndarray
+    uniforms: np.ndarray
+    given: np.ndarray
 
 
 @inline_kernel

@@ -33,84 +33,90 @@ CONTACT_ROWS = OBSERVATION + 8
 
 
 @kernel
-def reset(mask, rngs, uniforms, given, batch, setup, out):
-    """Starts an episode in each disk of ``mask`` (see :func:`reset_disks`)."""
-    reset_disks(np.int64(0), np.int64(mask.shape[0]), mask, rngs, uniforms, given, batch, setup, out)
+def reset(resets, batch, setup, out):
+    """Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`), the shares one after the
+    other on the calling thread."""
+    for k in range(batch[0].shape[1]):
+        reset_share(np.int64(k), resets, batch, setup, out)
 
 
 @parallel_kernel
-def reset_threads(share, mask, rngs, uniforms, given, batch, setup, out):
-    """:func:`reset` for a batch in shares of ``share`` disks, a share per thread."""
-    for k in prange((mask.shape[0] + share - 1) // share):
-        start, stop = np.int64(k * share), np.int64(min(mask.shape[0], (k + 1) * share))
-        reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out)
+def reset_threads(resets, batch, setup, out):
+    """:func:`reset` with the shares on numba's threads, a share per thread."""
+    for k in prange(batch[0].shape[1]):
+        reset_share(np.int64(k), resets, batch, setup, out)
 
 
 @kernel
-def reset_disks(start, stop, mask, rngs, uniforms, given, batch, setup, out):
-    """Starts an episode in each disk of ``mask`` from start to stop - 1: its disk constants (those randomized, in
-    the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all from the
-    episode's uniforms in [0, 1), drawn from its PCG64 state ``rngs[i]`` (the stream of
+def reset_share(k, resets, batch, setup, out):
+    """Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants (those
+    randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all
+    from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows; a row of
-    ``given`` (8 floats; NaN: none) replaces the initial state. The arrays of ``batch``, ``setup`` and ``out`` (see
-    :func:`step_rk4_share`) come whole: ``[row, i]`` for disk i."""
+    ``given`` (8 floats; NaN: none) replaces the initial state. ``resets`` holds the arrays of
+    :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i of share k at ``k * columns +
+    i``); ``batch``, ``setup`` and ``out`` are split into shares as :func:`step_rk4_share` takes them."""
+    mask, rngs, uniforms, given = resets
     lanes, goals, steps, error_sums = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags = out
     options = (settings[0], settings[1], settings[2], settings[3])
+    first = k * lanes.shape[2]
     values = np.empty(ranges.shape[0])
-    for i in range(start, stop):
-        if not mask[i]:
+    for i in range(min(lanes.shape[2], mask.shape[0] - first)):
+        d = first + i
+        if not mask[d]:
             continue
         if rngs.shape[0]:
             for j in range(uniforms.shape[1]):
-                uniforms[i, j] = pcg64.random(rngs[i])
+                uniforms[d, j] = pcg64.random(rngs[d])
         drawn = 0
-        for k in range(3):
-            low, high = disk_ranges[k, 0], disk_ranges[k, 1]
-            lanes[MASS + k, i] = low
-            if disk_ranges[k, 2]:
-                lanes[MASS + k, i] = low + (high - low) * uniforms[i, drawn]
+        for j in range(3):
+            low, high = disk_ranges[j, 0], disk_ranges[j, 1]
+            lanes[MASS + j, k, i] = low
+            if disk_ranges[j, 2]:
+                lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
         for j in range(ranges.shape[0]):
-            values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[i, drawn + j]
-        disk = (lanes[MASS, i], lanes[GRAVITY, i], lanes[RADIUS, i])
+            values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
+        disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])
         goal, x = task.start(values, disk, options)
-        if not np.isnan(given[i, 0]):
-            x = (given[i, 0], given[i, 1], given[i, 2], given[i, 3], given[i, 4], given[i, 5], given[i, 6], given[i, 7])
+        if not np.isnan(given[d, 0]):
+            x = (given[d, 0], given[d, 1], given[d, 2], given[d, 3], given[d, 4], given[d, 5], given[d, 6], given[d, 7])
         for j in range(len(goal)):
-            goals[j, i] = goal[j]
-        lanes[0, i], lanes[1, i], lanes[2, i], lanes[3, i] = x[0], x[1], x[2], x[3]
-        lanes[4, i], lanes[5, i], lanes[6, i], lanes[7, i] = x[4], x[5], x[6], x[7]
-        lanes[TAU_SPIN, i] = lanes[TAU_STEER, i] = 0.0
-        lanes[STEP_SIZE, i] = config[PERIOD]
-        steps[i] = 0
-        lanes[TRACKING_SUM, i] = lanes[HALF_SUM, i] = 0.0
+            goals[j, k, i] = goal[j]
+        lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+        lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
+        lanes[STEP_SIZE, k, i] = config[PERIOD]
+        steps[k, i] = 0
+        lanes[TRACKING_SUM, k, i] = lanes[HALF_SUM, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
-        info[0, i], info[1, i] = x[0], x[1]
-        info[2, i], info[3, i] = x[2], x[3]
-        info[4, i], info[5, i] = x[4], x[5]
-        info[6, i], info[7, i] = x[6], x[7]
-        info[ENERGY, i], info[LAMBDA1, i] = contact[0], contact[1]
-        info[LAMBDA2, i], info[NORMAL_FORCE, i] = contact[2], contact[3]
-        info[REQUIRED_FRICTION, i], info[STATUS, i] = contact[4], code
-        info[REWARD, i] = 0.0
+        info[0, k, i], info[1, k, i] = x[0], x[1]
+        info[2, k, i], info[3, k, i] = x[2], x[3]
+        info[4, k, i], info[5, k, i] = x[4], x[5]
+        info[6, k, i], info[7, k, i] = x[6], x[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+        info[REWARD, k, i] = 0.0
         for j in range(TERMS, OBSERVATION):
-            info[j, i] = 0.0
+            info[j, k, i] = 0.0
         observation = task.observe(x, goal, options)
         for j in range(len(observation)):
-            info[OBSERVATION + j, i] = observations[i, j] = min(max(observation[j], -bounds[j]), bounds[j])
-        flags[TERMINATED, i] = False
-        flags[TRUNCATED, i] = False
-        flags[SUCCESS, i] = True
+            info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
+        flags[TERMINATED, k, i] = False
+        flags[TRUNCATED, k, i] = False
+        flags[SUCCESS, k, i] = True
 
 
 @kernel
-def step_euler_share(k, actions, batch, setup, out):
+def step_euler_share(k, actions, batch, setup, out, resets):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs.
+    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -199,35 +205,37 @@ def step_euler_share(k, actions, batch, setup, out):
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_euler(actions, batch, setup, out):
+def step_euler(actions, batch, setup, out, resets):
     """Steps a batch (see :func:`step_euler_share`), its shares one after the other on the calling thread;
     returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
-            step_euler_share(np.int64(k), actions, batch, setup, out)
+            step_euler_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @parallel_kernel
-def step_euler_threads(actions, batch, setup, out):
+def step_euler_threads(actions, batch, setup, out, resets):
     """:func:`step_euler` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
-            step_euler_share(np.int64(k), actions, batch, setup, out)
+            step_euler_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @kernel
-def step_symplectic_euler_share(k, actions, batch, setup, out):
+def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs.
+    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -316,35 +324,37 @@ def step_symplectic_euler_share(k, actions, batch, setup, out):
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_symplectic_euler(actions, batch, setup, out):
+def step_symplectic_euler(actions, batch, setup, out, resets):
     """Steps a batch (see :func:`step_symplectic_euler_share`), its shares one after the other on the calling thread;
     returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
-            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @parallel_kernel
-def step_symplectic_euler_threads(actions, batch, setup, out):
+def step_symplectic_euler_threads(actions, batch, setup, out, resets):
     """:func:`step_symplectic_euler` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
-            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @kernel
-def step_rk4_share(k, actions, batch, setup, out):
+def step_rk4_share(k, actions, batch, setup, out, resets):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs.
+    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -433,35 +443,37 @@ def step_rk4_share(k, actions, batch, setup, out):
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_rk4(actions, batch, setup, out):
+def step_rk4(actions, batch, setup, out, resets):
     """Steps a batch (see :func:`step_rk4_share`), its shares one after the other on the calling thread;
     returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
-            step_rk4_share(np.int64(k), actions, batch, setup, out)
+            step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @parallel_kernel
-def step_rk4_threads(actions, batch, setup, out):
+def step_rk4_threads(actions, batch, setup, out, resets):
     """:func:`step_rk4` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
-            step_rk4_share(np.int64(k), actions, batch, setup, out)
+            step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @kernel
-def step_dopri5_share(k, actions, batch, setup, out):
+def step_dopri5_share(k, actions, batch, setup, out, resets):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs.
+    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -534,35 +546,37 @@ def step_dopri5_share(k, actions, batch, setup, out):
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_dopri5(actions, batch, setup, out):
+def step_dopri5(actions, batch, setup, out, resets):
     """Steps a batch (see :func:`step_dopri5_share`), its shares one after the other on the calling thread;
     returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
-            step_dopri5_share(np.int64(k), actions, batch, setup, out)
+            step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @parallel_kernel
-def step_dopri5_threads(actions, batch, setup, out):
+def step_dopri5_threads(actions, batch, setup, out, resets):
     """:func:`step_dopri5` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
-            step_dopri5_share(np.int64(k), actions, batch, setup, out)
+            step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @kernel
-def step_contact_share(k, actions, batch, setup, out):
+def step_contact_share(k, actions, batch, setup, out, resets):
     """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs.
+    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -628,25 +642,26 @@ def step_contact_share(k, actions, batch, setup, out):
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_contact(actions, batch, setup, out):
+def step_contact(actions, batch, setup, out, resets):
     """Steps a batch (see :func:`step_contact_share`), its shares one after the other on the calling thread;
     returns the first disk with a non-finite action (then nothing is stepped), or -1."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
-            step_contact_share(np.int64(k), actions, batch, setup, out)
+            step_contact_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
 
 @parallel_kernel
-def step_contact_threads(actions, batch, setup, out):
+def step_contact_threads(actions, batch, setup, out, resets):
     """:func:`step_contact` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
-            step_contact_share(np.int64(k), actions, batch, setup, out)
+            step_contact_share(np.int64(k), actions, batch, setup, out, resets)
     return bad

@@ -253,7 +253,7 @@ class DiskBatch:
         self.threads = thread_count(num_envs)
         self.share = columns(-(-num_envs // self.threads))
         width = self.threads * self.share
-        # The serial and the threaded kernels (resets on threads take the share as their first argument).
+        # The serial and the threaded kernels.
         method = config.integrator if config.contact == "rolling" else "contact"
         self._steps = (getattr(steps, f"step_{method}"), getattr(steps, f"step_{method}_threads"))
         self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
@@ -262,7 +262,7 @@ class DiskBatch:
         self.state_rows = slice(0, 8) if first is None else np.array([0, 1, 2, 3, 4, first, first + 1, 5, 6, 7])
         """The rows of the disks' state in the info block: the 8-state, or the 10-state under the ``"sliding"`` and
         ``"coulomb"`` contacts (the centre's velocity among the rows of ``engine.SLIDING_INFO``)."""
-        self._resets = (steps.reset, functools.partial(steps.reset_threads, self.share))
+        self._resets = (steps.reset, steps.reset_threads)
         self.choice = ThreadChoice() if self.threads > 1 else None
         """How a batch of several shares steps them (None: one share, on the calling thread)."""
         if num_envs >= HEAP_FROM:
@@ -299,6 +299,7 @@ class DiskBatch:
         )
         """The settings, as the kernels take them (:class:`~rolling_disk_env.engine.SetupArrays`, a plain tuple)."""
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
+        self._no_resets = np.zeros(num_envs, dtype=bool)
         self._bundle()
 
     @property
@@ -319,7 +320,7 @@ class DiskBatch:
 
     def __getstate__(self) -> dict:
         """Pickles the arrays, not the views of them the step takes (which would pickle as copies)."""
-        return {key: value for key, value in self.__dict__.items() if key not in ("_whole", "_shares", "_entries")}
+        return {key: value for key, value in self.__dict__.items() if key not in ("_shares", "_entries")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
@@ -327,10 +328,8 @@ class DiskBatch:
 
     def _bundle(self) -> None:
         """The lanes, goals, step counts and error sums as the kernels take them
-        (:class:`~rolling_disk_env.engine.BatchArrays`, plain tuples): whole for the reset, and split into the
-        shares (views) for the step."""
+        (:class:`~rolling_disk_env.engine.BatchArrays`, a plain tuple), split into the shares (views)."""
         self._entries = [None, None]  # the compiled serial and threaded steps, once looked up (entry_point)
-        self._whole = (self.lanes, self.goals, self.steps, self.error_sums)
         split = (self.threads, self.share)
         self._shares = (
             self.lanes.reshape(-1, *split),
@@ -355,30 +354,47 @@ class DiskBatch:
         rngs = self._no_rngs if rngs is None else rngs
         states = self.no_state if states is None else states
         reset = self._resets[self.choice is not None and self.choice.threaded]
-        if self.contact_rows is None:
-            reset(mask, rngs, self.uniforms, states, self._whole, self.setup, out.blocks)
-            return
-        rolling = np.ascontiguousarray(states[:, list(ROLLING_INDICES)])
-        reset(mask, rngs, self.uniforms, rolling, self._whole, self.setup, out.blocks)
-        velocities = np.ascontiguousarray(states[:, 5:7])
-        engine.start_contact(mask, velocities, self.lanes, self.setup, out.blocks[1], self.contact_rows)
+        given = states if self.contact_rows is None else np.ascontiguousarray(states[:, list(ROLLING_INDICES)])
+        reset((mask, rngs, self.uniforms, given), self._shares, self.setup, out.shares)
+        self._start_contact(mask, out, states)
 
-    def step(self, actions: np.ndarray, out: Outputs) -> int:
+    def _start_contact(self, mask: np.ndarray, out: Outputs, states: np.ndarray) -> None:
+        """Under the ``"sliding"`` and ``"coulomb"`` contacts, completes the reset of the disks of ``mask``
+        (:func:`rolling_disk_env.engine.start_contact`); under ``"rolling"``, nothing."""
+        if self.contact_rows is not None:
+            velocities = np.ascontiguousarray(states[:, 5:7])
+            engine.start_contact(mask, velocities, self.lanes, self.setup, out.blocks[1], self.contact_rows)
+
+    def step(
+        self, actions: np.ndarray, out: Outputs, resetting: np.ndarray | None = None, rngs: np.ndarray | None = None
+    ) -> int:
         """Steps every disk under normalized ``actions`` (N, A: C-contiguous float32), writing the outputs into
-        ``out``.
+        ``out``; then, in the same compiled call, starts new episodes in the disks of ``resetting`` (their actions
+        are ignored and their outputs are their first ones), drawn from ``rngs`` as :meth:`reset` draws them.
+
+        Args:
+            actions: (N, A), C-contiguous float32.
+            out: where the outputs go.
+            resetting: (N,) C-contiguous bool, or None for no reset.
+            rngs: (N, 4) uint64 PCG64 states, for ``resetting``.
 
         Returns:
-            The first disk whose action is not finite (then nothing was stepped), or -1.
+            The first disk whose action is not finite (then nothing was stepped or reset), or -1.
         """
         if self._growing:
             self._grow_tracking()
-        arguments = (actions, self._shares, self.setup, out.shares)
+        mask = self._no_resets if resetting is None else resetting
+        resets = (mask, self._no_rngs if rngs is None else rngs, self.uniforms, self.no_state)
+        arguments = (actions, self._shares, self.setup, out.shares, resets)
         if self.choice is None:
-            return self._step(False, arguments)(*arguments)
-        threaded = self.choice.next()
-        start = time.perf_counter()
-        bad = self._step(threaded, arguments)(*arguments)
-        self.choice.record(threaded, time.perf_counter() - start)
+            bad = self._step(False, arguments)(*arguments)
+        else:
+            threaded = self.choice.next()
+            start = time.perf_counter()
+            bad = self._step(threaded, arguments)(*arguments)
+            self.choice.record(threaded, time.perf_counter() - start)
+        if bad < 0 and resetting is not None:
+            self._start_contact(resetting, out, self.no_state)
         return bad
 
     def _grow_tracking(self) -> None:
@@ -397,7 +413,9 @@ class DiskBatch:
 
     def _step(self, threaded: bool, arguments: tuple):
         """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
-        passes: ``actions`` a C-contiguous float32 (N, A) array, the batch's own arrays, outputs of :meth:`outputs`."""
+        passes: ``actions`` a C-contiguous float32 (N, A) array, the batch's own arrays, outputs of :meth:`outputs`,
+        and the resets (:class:`~rolling_disk_env.engine.ResetArrays`: a C-contiguous bool mask, uint64 PCG64
+        states, the batch's uniforms and :attr:`no_state`)."""
         entry = self._entries[threaded]
         if entry is None:
             entry = self._entries[threaded] = entry_point(self._steps[threaded], arguments)

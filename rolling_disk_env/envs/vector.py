@@ -84,7 +84,6 @@ class RollingDiskVectorEnv(VectorEnv):
         self._rngs = np.zeros((self.num_envs, 4), dtype=np.uint64)
         self._seeded = False
         self._ended = np.zeros(self.num_envs, dtype=bool)
-        self._none = np.zeros(self.num_envs, dtype=bool)
         self._observations: np.ndarray | None = None
         self._term_keys = [f"reward_{name}" for name in self.task.reward_weights]
 
@@ -146,12 +145,11 @@ class RollingDiskVectorEnv(VectorEnv):
                 'reset them with reset(options={"reset_mask": mask}) first'
             )
         out = self._batch.outputs(zeroed=False)  # the step writes every column
-        resetting = self._ended if mode == AutoresetMode.NEXT_STEP else self._none
-        bad = self._batch.step(actions, out)
+        # Next-step autoreset: the step starts new episodes in the sub-environments that ended, in the same call.
+        resetting = self._ended if mode == AutoresetMode.NEXT_STEP else None
+        bad = self._batch.step(actions, out, resetting, self._rngs)
         if bad >= 0:
             raise ValueError(f"actions must be finite numbers, got {actions[bad]!r} for sub-environment {bad}")
-        if resetting.any():
-            self._batch.reset(resetting, out, self._rngs)
         # Copies: views would keep the whole info block alive as long as the caller keeps them.
         rewards = out.info[engine.REWARD].copy()
         terminated, truncated = out.flags[engine.TERMINATED].copy(), out.flags[engine.TRUNCATED].copy()
