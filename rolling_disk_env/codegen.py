@@ -480,7 +480,7 @@ FINISH_TEMPLATE = """\
         code = {contact_status} if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
-{report}
+{report}{terms_loop}
         terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
 {terms}
         info[REWARD, k, i] = {reward}
@@ -489,9 +489,18 @@ FINISH_TEMPLATE = """\
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = {success}"""
-"""The end of a control period, for disk i of one task: the loop body of the outputs (the fields in braces are filled
-in per task). Written out in the loop, not called: numba counts references to the arrays passed to a function, and
-those calls keep a loop from vectorizing."""
+"""The end of a control period, for disk i of one task: the loop body of the outputs (the fields in braces are filled in
+per task), in one loop or, with :data:`TERMS_LOOP` (a task's ``terms_loop``), two. Written out in the loop, not called:
+numba counts references to the arrays passed to a function, and those calls keep a loop from vectorizing."""
+
+TERMS_LOOP = """
+    # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
+    for i in range(lanes.shape[2]):
+        x = {state}
+        goal = {goal}
+        code = np.int64(info[STATUS, k, i])"""
+"""Between the contact forces and termination of :data:`FINISH_TEMPLATE` and the rest, in the rolling steps of a
+task whose ``terms_loop`` is set: the end of the loop, and the next loop's disk."""
 
 HANDOVER = {
     "rolling": """
@@ -766,7 +775,8 @@ def generate_steps(task) -> str:
     ]:
         handover = HANDOVER["contact" if method == "contact" else "rolling"]
         template = STEP_TEMPLATE.replace("{advance}", advance).replace("{handover}", handover)
-        template = template.replace("{finish}", _fill(finish, contact_fields))
+        split = TERMS_LOOP if task.terms_loop and method != "contact" else ""
+        template = template.replace("{finish}", _fill(finish.replace("{terms_loop}", split), contact_fields))
         fields_here = {
             **step_fields,
             "{store_substep}": store_substep,

@@ -187,6 +187,14 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+    # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
+    for i in range(lanes.shape[2]):
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
+        code = np.int64(info[STATUS, k, i])
         terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
@@ -306,6 +314,14 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+    # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
+    for i in range(lanes.shape[2]):
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
+        code = np.int64(info[STATUS, k, i])
         terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
@@ -425,6 +441,14 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+    # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
+    for i in range(lanes.shape[2]):
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
+        code = np.int64(info[STATUS, k, i])
         terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
@@ -528,6 +552,14 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
+    # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
+    for i in range(lanes.shape[2]):
+        x = (
+            lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
+            lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
+        )
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
+        code = np.int64(info[STATUS, k, i])
         terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]

@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.goto as task
 
-TASK_SOURCE = "d05a93bb966057f030a7ae27427101251e987596d40870f634e57171dfa89578"
+TASK_SOURCE = "e75bb46de7779a78b095a2b15842cbd74ab39f52c2b195cc803522c377785477"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 7
 """The first row of the observation in an info block, after the reward terms."""
