@@ -4,9 +4,11 @@ results."""
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import platform
 import statistics
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -132,3 +134,26 @@ def table(header: list[str], rows: list[list[object]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
     return "\n".join(lines)
+
+
+TARGETS = {
+    "host": {},
+    "AVX2 (haswell)": {
+        "NUMBA_CPU_NAME": "haswell",
+        "NUMBA_CPU_FEATURES": "+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+popcnt,+sse4.2,+cx16,+movbe",
+    },
+    "x86-64 baseline (SSE2)": {"NUMBA_CPU_NAME": "x86-64", "NUMBA_CPU_FEATURES": ""},
+}
+"""Compile targets: numba's environment variables for each (``host``: none set). ``haswell``'s features give AVX2
+code on any x86-64 host, AVX-512 ones included; the x86-64 baseline is SSE2 (two doubles a vector, the width of
+ARM's NEON)."""
+
+
+def in_target(script: str, target: str, flags: list[str]) -> object:
+    """Runs ``script`` with ``flags`` in a fresh Python compiled for ``target`` (a key of :data:`TARGETS`: numba reads
+    its target when it starts) and returns the JSON value of the last line it prints."""
+    command = [sys.executable, script, *flags]
+    result = subprocess.run(command, env={**os.environ, **TARGETS[target]}, capture_output=True, text=True, check=False)
+    if result.returncode:
+        raise RuntimeError(f"the {target} run failed:\n{result.stderr[-3000:]}")
+    return json.loads(result.stdout.splitlines()[-1])

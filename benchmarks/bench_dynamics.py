@@ -11,27 +11,32 @@ without torques, RK4 steps of 0.01 s on the full model.
    fused step of ``_generated/<task>.py``, timed here alone in a loop of this script); and the whole fused step of
    the vector env (``upright`` on one thread: RK4, contact forces, observation, reward, termination) on the same
    disks (scenario 1 precesses at a lean of 0.1 rad: no episode ends, as in a stepped env that resets its disks).
-3. ``rolling_disk_env.trig.sincos`` in a compiled loop over N angles against libm's ``math.sin`` and ``math.cos``
+3. The fused step of every task on one thread against the lanes loop of 2., N = 4096, in a fresh process for each
+   compile target (``_common.TARGETS``: the host's CPU, AVX2 code, the x86-64 baseline).
+4. ``rolling_disk_env.trig.sincos`` in a compiled loop over N angles against libm's ``math.sin`` and ``math.cos``
    in the same loop (numba calls libm, which keeps the loop scalar), and numpy's ``np.sin`` and ``np.cos``, per
    angle (a sine and a cosine), angles uniform in [-4, 4] rad; with the largest difference from libm in ulps.
 """
 
 from __future__ import annotations
 
+import json
 import math
 
 import gymnasium as gym
 import numba
 import numpy as np
-from _common import arguments, median_seconds, table, write_markdown
+from _common import TARGETS, arguments, cpu, in_target, median_seconds, table, write_markdown
 
 import rolling_disk_env as rd
 from rolling_disk_env import engine, trig
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.envs import batch as envs_batch
 from rolling_disk_env.integrators import EVALUATIONS_PER_STEP
+from rolling_disk_env.tasks import TASKS
 
 DT = 0.01
+FUSED_HEADER = ["task", "fused step, one thread, ns", "RK4 lanes loop ns", "fused / RK4"]
 SCENARIO_1 = (2.0, 0.0, 0.0, 0.1, 0.0, 2.5, 0.0, 0.0)
 RK4 = engine.METHODS.index("rk4")
 DISK = rd.DiskParams().constants
@@ -101,44 +106,61 @@ def one_disk_rows(repeat: int) -> list[list[object]]:
     ]
 
 
+def fused_step_seconds(task: str, n: int, repeat: int) -> float:
+    """Seconds of one fused step of the vector env of ``task`` with n disks on one thread (the cost a disk), the disks
+    on scenario 1 (as the lanes loop's: it precesses at a lean of 0.1 rad, so no episode ends by falling)."""
+    threads_from, envs_batch.THREADS_FROM = envs_batch.THREADS_FROM, n + 1
+    env = gym.make_vec(rd.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", task=task)
+    envs_batch.THREADS_FROM = threads_from
+    env.reset(seed=0, options={"state": np.tile(SCENARIO_1, (n, 1))})
+    batch = env.unwrapped._batch
+    out, actions = batch.outputs(), np.zeros((n, env.single_action_space.shape[0]), dtype=np.float32)
+    batch.step(actions, out)
+    seconds = median_seconds(lambda: batch.step(actions, out), max(3, 200_000 // n), repeat)
+    env.close()
+    return seconds
+
+
+def lanes_seconds(n: int, repeat: int) -> float:
+    """Seconds of :func:`rk4_lanes` on n disks on scenario 1."""
+    lanes = np.zeros((engine.LANES, n))
+    lanes[:8] = np.array(SCENARIO_1)[:, None]
+    lanes[engine.MASS : engine.RADIUS + 1] = np.array(DISK)[:, None]
+    rk4_lanes(lanes, DT)
+    return median_seconds(lambda: rk4_lanes(lanes, DT), max(3, 200_000 // n), repeat)
+
+
 def batch_rows(sizes, repeat: int) -> list[list[object]]:
-    env_step = {}
-    for n in sizes:
-        threads_from, envs_batch.THREADS_FROM = envs_batch.THREADS_FROM, n + 1  # one thread: the cost a disk
-        env = gym.make_vec(rd.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
-        envs_batch.THREADS_FROM = threads_from
-        env.reset(seed=0, options={"state": np.tile(SCENARIO_1, (n, 1))})  # as the lanes loop's: no episode ends
-        batch = env.unwrapped._batch
-        out, actions = batch.outputs(), np.zeros((n, 2), dtype=np.float32)
-        batch.step(actions, out)
-        number = max(3, 200_000 // n)
-        env_step[n] = median_seconds(
-            lambda batch=batch, out=out, actions=actions: batch.step(actions, out), number, repeat
-        )
-        env.close()
+    env_step = {n: fused_step_seconds("upright", n, repeat) for n in sizes}
     result = []
     for n in sizes:
-        number = max(3, 200_000 // n)
         rows = Rows(n)
         rows.advance()
-        advance = median_seconds(rows.advance, number, repeat)
-        lanes = np.zeros((engine.LANES, n))
-        lanes[:8] = np.array(SCENARIO_1)[:, None]
-        lanes[engine.MASS : engine.RADIUS + 1] = np.array(DISK)[:, None]
-        rk4_lanes(lanes, DT)
-        lanes_seconds = median_seconds(lambda lanes=lanes: rk4_lanes(lanes, DT), number, repeat)
+        advance = median_seconds(rows.advance, max(3, 200_000 // n), repeat)
+        lanes = lanes_seconds(n, repeat)
         result.append(
             [
                 n,
                 f"{advance / n * 1e9:.0f}",
                 f"{n / advance / 1e6:.2f}",
-                f"{lanes_seconds / n * 1e9:.0f}",
-                f"{n / lanes_seconds / 1e6:.2f}",
+                f"{lanes / n * 1e9:.0f}",
+                f"{n / lanes / 1e6:.2f}",
                 f"{env_step[n] / n * 1e9:.0f}",
-                f"{lanes_seconds / env_step[n]:.2f}",
+                f"{lanes / env_step[n]:.2f}",
             ]
         )
     return result
+
+
+def fused_rows(n: int, repeat: int) -> list[list[object]]:
+    """Per task: the fused step and RK4's lanes loop on n disks, ns a disk, and their ratio (in this process's
+    compile target)."""
+    lanes = lanes_seconds(n, repeat) / n * 1e9
+    rows = []
+    for task in TASKS:
+        fused = fused_step_seconds(task, n, repeat) / n * 1e9
+        rows.append([task, f"{fused:.0f}", f"{lanes:.0f}", f"{fused / lanes:.2f}"])
+    return rows
 
 
 def ulps(values: np.ndarray, reference: np.ndarray) -> float:
@@ -174,9 +196,20 @@ def sincos_rows(sizes, repeat: int) -> list[list[object]]:
     return rows
 
 
+FUSED_N = 4096
+"""Disks of the fused steps' table."""
+
+
 def main() -> None:
-    args = arguments(__doc__)
+    args = arguments(__doc__, **{"fused-child": {"action": "store_true", "help": "internal: one target's fused steps"}})
     repeat = 3 if args.quick else 7
+    if args.fused_child:
+        print(json.dumps([fused_rows(FUSED_N, repeat), cpu()]))
+        return
+    fused = []
+    for target in TARGETS:
+        rows, target_cpu = in_target(__file__, target, ["--fused-child"] + (["--quick"] if args.quick else []))
+        fused += [f"### Compiled for {target}: {target_cpu}", "", table(FUSED_HEADER, rows), ""]
     sizes = (1, 16, 256, 4096) if args.quick else (1, 16, 256, 4096, 65536)
     one = one_disk_rows(repeat)
     batch = batch_rows(sizes, repeat)
@@ -210,6 +243,10 @@ def main() -> None:
             "",
             f"Derivative evaluations per step: {evaluations}, dopri5 7 per attempted step.",
             "",
+            f"## The fused step of every task against RK4's lanes loop, one thread, N = {FUSED_N}, ns a disk, for each"
+            " compile target",
+            "",
+            *fused,
             "## Sine and cosine of N angles in a compiled loop, ns per angle",
             "",
             table(

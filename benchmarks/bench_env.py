@@ -37,7 +37,7 @@ import time
 import gymnasium as gym
 import numba
 import numpy as np
-from _common import arguments, cpu, medians_in_turns, table, write_markdown
+from _common import TARGETS, arguments, cpu, in_target, medians_in_turns, table, write_markdown
 
 import rolling_disk_env as rd
 from rolling_disk_env.envs import batch
@@ -55,15 +55,6 @@ VECTOR = {
     "goto": (rd.ENV_ID, {"task": "goto"}),
     "CartPole-v1": ("CartPole-v1", {}),
 }
-TARGETS = {
-    "host": {},
-    "AVX2 (haswell)": {
-        "NUMBA_CPU_NAME": "haswell",
-        "NUMBA_CPU_FEATURES": "+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+popcnt,+sse4.2,+cx16,+movbe",
-    },
-    "x86-64 baseline (SSE2)": {"NUMBA_CPU_NAME": "x86-64", "NUMBA_CPU_FEATURES": ""},
-}
-"""Compile targets of the vector table: numba's environment variables for each (``host``: none set)."""
 SIZES = (1, 8, 64, 512, 4096, 16384)
 THREAD_SIZES = (512, 1024, 2048, 4096, 16384)
 TASKS = ("upright", "circle", "goto")
@@ -184,14 +175,10 @@ def vector_rates(sizes, seconds: float, repeats: int) -> tuple[dict[str, list[fl
     return rates, threads
 
 
-def vector_rates_for(target: str, quick: bool) -> tuple[dict[str, list[float]], list[int]]:
+def vector_rates_for(target: str, quick: bool) -> tuple[dict[str, list[float]], list[int], str]:
     """:func:`vector_rates` in a fresh process compiled for ``target`` (a key of :data:`TARGETS`), with the CPU line
     of its result file."""
-    command = [sys.executable, __file__, "--vector-child"] + (["--quick"] if quick else [])
-    result = subprocess.run(command, env={**os.environ, **TARGETS[target]}, capture_output=True, text=True, check=False)
-    if result.returncode:
-        raise RuntimeError(f"the {target} run failed:\n{result.stderr[-3000:]}")
-    return json.loads(result.stdout.splitlines()[-1])
+    return in_target(__file__, target, ["--vector-child"] + (["--quick"] if quick else []))
 
 
 def thread_rows(sizes, seconds: float, repeats: int) -> list[list[object]]:
