@@ -63,18 +63,18 @@ class ThreadChoice:
     """Chooses, step by step, whether a batch of several shares steps them on numba's threads or one after the other
     on the calling thread, from the times of its own recent steps.
 
-    Only a step that follows a step of the same way is timed. The first after a change may compile; after a spell on the
-    calling thread, numba's threads have gone to sleep and the first threaded step waits for them to wake (measured:
-    probes of one step timed the threads at 1.5 times their steady step, at N = 4096, and kept on the calling thread a
-    batch that the threads step twice as fast); after a spell on the threads, the first serial step finds half the disks
-    in the other core's cache. The first four steps try each way twice. Then the faster way is used, its time a moving
-    average of its steps (weight :data:`WEIGHT` on the latest). Now and then two steps try the other way (a probe),
-    whose time the second one sets, so that a change of load (another process starting or ending on the cores) is
-    followed. A probe costs most where the threads lose: a thread on a busy core is preempted for whole time slices, ten
-    times a step, and the probe waits for it. So the probes back off: after a probe that loses, the next comes twice as
-    many steps later (from :data:`PROBE_EVERY` up to :data:`PROBE_AT_MOST`); after one that wins, the ways swap and the
-    probes start again every :data:`PROBE_EVERY` steps. A probe made fast by chance is corrected by the steps that
-    follow it.
+    Only a step that follows a step of the same way is timed. The first after a change may compile; after a spell on
+    the calling thread, numba's threads have gone to sleep and the first threaded step waits for them to wake
+    (measured: probes of one step timed the threads at 1.5 times their steady step, at N = 4096, and kept on the
+    calling thread a batch that the threads step twice as fast); after a spell on the threads, the first serial step
+    finds half the disks in the other core's cache. The first four steps try each way twice. Then the faster way is
+    used, its time a moving average of its steps (weight :data:`WEIGHT` on the latest). Now and then
+    :data:`PROBE_STEPS` steps try the other way (a probe), whose time the fastest of them sets (a single step slowed
+    by the machine's other load would misjudge it), so that a change of load (another process starting or ending on
+    the cores) is followed. A probe costs most where the threads lose: a thread on a busy core is preempted for whole
+    time slices, ten times a step, and the probe waits for it. So the probes back off: after a probe that loses, the
+    next comes twice as many steps later (from :data:`PROBE_EVERY` up to :data:`PROBE_AT_MOST`); after one that
+    wins, the ways swap and the probes start again every :data:`PROBE_EVERY` steps.
 
     Attributes:
         threaded: whether the latest choice was the threads.
@@ -84,6 +84,8 @@ class ThreadChoice:
     """Steps from a change of way to the first probe of the other."""
     PROBE_AT_MOST = 2048
     """The most steps between two probes."""
+    PROBE_STEPS = 3
+    """Steps of a probe: the first untimed, the faster of the others its time."""
     WEIGHT = 0.25
     """Weight of a step's time in its way's moving average."""
 
@@ -95,28 +97,36 @@ class ThreadChoice:
         self.seconds = [math.nan, math.nan]
         """Moving averages of a step's time (s): on the calling thread, on the threads."""
         self._last: bool | None = None  # the way of the latest step
+        self._probe = math.inf  # the fastest timed step of the probe under way (s)
 
     def next(self) -> bool:
         """Whether the next step runs on the threads."""
         self.steps += 1
         if self.steps <= 4:
             return self.steps > 2
-        return self.threaded != (self.next_probe <= self.steps <= self.next_probe + 1)
+        return self.threaded != (self.next_probe <= self.steps < self.next_probe + self.PROBE_STEPS)
 
     def record(self, threaded: bool, seconds: float) -> None:
         """Takes the time of a step that ran on the threads or not."""
         follows, self._last = self._last == threaded, threaded
         if not follows:
             return
-        average, probe = self.seconds[threaded], threaded != self.threaded
-        if probe or math.isnan(average):
+        if self.steps <= 4:  # the start: the second step of each way
             self.seconds[threaded] = seconds
+            self.threaded = math.isnan(self.seconds[False]) or self.seconds[True] < self.seconds[False]
+            return
+        probe_ends = self.steps == self.next_probe + self.PROBE_STEPS - 1
+        if threaded != self.threaded:  # a timed step of a probe
+            self._probe = min(self._probe, seconds)
+            if not probe_ends:
+                return
+            self.seconds[threaded], self._probe = self._probe, math.inf
         else:
-            self.seconds[threaded] = average + self.WEIGHT * (seconds - average)
+            self.seconds[threaded] += self.WEIGHT * (seconds - self.seconds[threaded])
         serial, parallel = self.seconds
         was = self.threaded
-        self.threaded = math.isnan(serial) or parallel < serial
-        if self.steps > self.next_probe:
+        self.threaded = parallel < serial
+        if probe_ends:
             won = self.threaded != was
             self.interval = self.PROBE_EVERY if won else min(2 * self.interval, self.PROBE_AT_MOST)
             self.next_probe = self.steps + self.interval
