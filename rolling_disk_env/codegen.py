@@ -529,7 +529,7 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -545,7 +545,8 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     engine.action_torques(actions, actuators, lanes, k, disks)
 {advance}{handover}{finish}{track}
     engine.transpose(info, OBSERVATION, observations, k)
-    reset_share(k, resets, batch, setup, out)
+    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
+        reset_share(k, resets, batch, setup, out)
 
 
 @kernel
@@ -600,7 +601,6 @@ def reset_share(k, resets, batch, setup, out):
     {unpack}
     options = {settings}
     first = k * lanes.shape[2]
-    values = np.empty(ranges.shape[0])
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
         if not mask[d]:
@@ -615,6 +615,7 @@ def reset_share(k, resets, batch, setup, out):
             if disk_ranges[j, 2]:
                 lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
+        values = np.empty(ranges.shape[0])
         for j in range(ranges.shape[0]):
             values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
         disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])

@@ -62,7 +62,6 @@ def reset_share(k, resets, batch, setup, out):
     observations, info, flags = out
     options = (settings[0], settings[1])
     first = k * lanes.shape[2]
-    values = np.empty(ranges.shape[0])
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
         if not mask[d]:
@@ -77,6 +76,7 @@ def reset_share(k, resets, batch, setup, out):
             if disk_ranges[j, 2]:
                 lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
+        values = np.empty(ranges.shape[0])
         for j in range(ranges.shape[0]):
             values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
         disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])
@@ -116,7 +116,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -207,7 +207,8 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, observations, k)
-    reset_share(k, resets, batch, setup, out)
+    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
+        reset_share(k, resets, batch, setup, out)
 
 
 @kernel
@@ -237,7 +238,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -328,7 +329,8 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, observations, k)
-    reset_share(k, resets, batch, setup, out)
+    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
+        reset_share(k, resets, batch, setup, out)
 
 
 @kernel
@@ -358,7 +360,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -449,7 +451,8 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, observations, k)
-    reset_share(k, resets, batch, setup, out)
+    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
+        reset_share(k, resets, batch, setup, out)
 
 
 @kernel
@@ -479,7 +482,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -554,7 +557,8 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, observations, k)
-    reset_share(k, resets, batch, setup, out)
+    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
+        reset_share(k, resets, batch, setup, out)
 
 
 @kernel
@@ -584,7 +588,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
     """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -644,7 +648,8 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, observations, k)
-    reset_share(k, resets, batch, setup, out)
+    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
+        reset_share(k, resets, batch, setup, out)
 
 
 @kernel

@@ -315,7 +315,6 @@ class DiskBatch:
         )
         """The settings, as the kernels take them (:class:`~rolling_disk_env.engine.SetupArrays`, a plain tuple)."""
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
-        self._no_resets = np.zeros(num_envs, dtype=bool)
         self._bundle()
 
     @property
@@ -392,15 +391,16 @@ class DiskBatch:
             actions: (N, A), C-contiguous float32.
             out: where the outputs go.
             resetting: (N,) C-contiguous bool, or None for no reset.
-            rngs: (N, 4) uint64 PCG64 states, for ``resetting``.
+            rngs: (N, 4) uint64 PCG64 states, with ``resetting``.
 
         Returns:
             The first disk whose action is not finite (then nothing was stepped or reset), or -1.
         """
         if self._growing:
             self._grow_tracking()
-        mask = self._no_resets if resetting is None else resetting
-        resets = (mask, self._no_rngs if rngs is None else rngs, self.uniforms, self.no_state)
+        # Without resets, the step compiled for none (4 arrays fewer to pass: 0.4 us of a single env's step).
+        rngs = self._no_rngs if rngs is None else rngs
+        resets = None if resetting is None else (resetting, rngs, self.uniforms, self.no_state)
         arguments = (actions, self._shares, self.setup, out.shares, resets)
         if self.choice is None:
             bad = self._step(False, arguments)(*arguments)
@@ -431,7 +431,7 @@ class DiskBatch:
         """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
         passes: ``actions`` a C-contiguous float32 (N, A) array, the batch's own arrays, outputs of :meth:`outputs`,
         and the resets (:class:`~rolling_disk_env.engine.ResetArrays`: a C-contiguous bool mask, uint64 PCG64
-        states, the batch's uniforms and :attr:`no_state`)."""
+        states, the batch's uniforms and :attr:`no_state`), or None."""
         entry = self._entries[threaded]
         if entry is None:
             entry = self._entries[threaded] = entry_point(self._steps[threaded], arguments)
