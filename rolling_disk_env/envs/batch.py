@@ -63,18 +63,18 @@ class ThreadChoice:
     """Chooses, step by step, whether a batch of several shares steps them on numba's threads or one after the other
     on the calling thread, from the times of its own recent steps.
 
-    Only a step that follows a step of the same way is timed. The first after a change may compile; after a spell on
-    the calling thread, numba's threads have gone to sleep and the first threaded step waits for them to wake
-    (measured: probes of one step timed the threads at 1.5 times their steady step, at N = 4096, and kept on the
-    calling thread a batch that the threads step twice as fast); after a spell on the threads, the first serial step
-    finds half the disks in the other core's cache. The first four steps try each way twice. Then the faster way is
-    used, its time a moving average of its steps (weight :data:`WEIGHT` on the latest). Now and then
-    :data:`PROBE_STEPS` steps try the other way (a probe), whose time the fastest of them sets (a single step slowed
-    by the machine's other load would misjudge it), so that a change of load (another process starting or ending on
-    the cores) is followed. A probe costs most where the threads lose: a thread on a busy core is preempted for whole
-    time slices, ten times a step, and the probe waits for it. So the probes back off: after a probe that loses, the
-    next comes twice as many steps later (from :data:`PROBE_EVERY` up to :data:`PROBE_AT_MOST`); after one that
-    wins, the ways swap and the probes start again every :data:`PROBE_EVERY` steps.
+    Only a step that follows a step of the same way is timed. The first after a change may compile; after a spell on the
+    calling thread, numba's threads have gone to sleep and the first threaded step waits for them to wake (measured:
+    probes of one step timed the threads at 1.5 times their steady step, at N = 4096, and kept on the calling thread a
+    batch that the threads step twice as fast); after a spell on the threads, the first serial step finds half the disks
+    in the other core's cache. The first four steps try each way twice. Then the faster way is used, its time a moving
+    average of its steps (weight :data:`WEIGHT` on the latest). Now and then :data:`PROBE_STEPS` steps try the other way
+    (a probe), whose time the fastest of them sets (a single step slowed by the machine's other load would misjudge it;
+    a probe clearly lost at its first timed step ends there), so that a change of load (another process starting or
+    ending on the cores) is followed. A probe costs most where the threads lose: a thread on a busy core is preempted
+    for whole time slices, ten times a step, and the probe waits for it. So the probes back off: after a probe that
+    loses, the next comes twice as many steps later (from :data:`PROBE_EVERY` up to :data:`PROBE_AT_MOST`); after one
+    that wins, the ways swap and the probes start again every :data:`PROBE_EVERY` steps.
 
     Attributes:
         threaded: whether the latest choice was the threads.
@@ -86,6 +86,9 @@ class ThreadChoice:
     """The most steps between two probes."""
     PROBE_STEPS = 3
     """Steps of a probe: the first untimed, the faster of the others its time."""
+    LOSING = 1.5
+    """A probe whose first timed step takes this many times the way in use ends there, lost (beside a busy core a
+    threaded step takes several times a serial one: each step more of a probe costs that)."""
     WEIGHT = 0.25
     """Weight of a step's time in its way's moving average."""
 
@@ -118,6 +121,7 @@ class ThreadChoice:
         probe_ends = self.steps == self.next_probe + self.PROBE_STEPS - 1
         if threaded != self.threaded:  # a timed step of a probe
             self._probe = min(self._probe, seconds)
+            probe_ends |= self._probe > self.LOSING * self.seconds[self.threaded]  # lost: no need of another
             if not probe_ends:
                 return
             self.seconds[threaded], self._probe = self._probe, math.inf
