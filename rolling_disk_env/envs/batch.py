@@ -71,36 +71,43 @@ class ThreadChoice:
     average of its steps (weight :data:`WEIGHT` on the latest). Now and then :data:`PROBE_STEPS` steps try the other way
     (a probe), whose time the fastest of them sets (a single step slowed by the machine's other load would misjudge it;
     a probe clearly lost at its first timed step ends there), so that a change of load (another process starting or
-    ending on the cores) is followed. A probe costs most where the threads lose: a thread on a busy core is preempted
-    for whole time slices, ten times a step, and the probe waits for it. So the probes back off: after a probe that
-    loses, the next comes twice as many steps later (from :data:`PROBE_EVERY` up to :data:`PROBE_AT_MOST`); after one
-    that wins, the ways swap and the probes start again every :data:`PROBE_EVERY` steps.
+    ending on the cores) is followed.
+
+    A probe that loses costs the time its steps took beyond the way in use, and that cost sets when the next comes: at
+    most :data:`BUDGET` of the time spent stepping goes to lost probes. Idle, a serial probe loses a fraction of a
+    step and comes back every hundred steps or so; beside a busy core, a thread is preempted for whole time slices and
+    a threaded probe loses some fifty serial steps (N = 4096, ``benchmarks/bench_threads.py``), so the next comes
+    thousands of steps later. After a probe that wins, the ways swap and the next probe comes :data:`PROBE_EVERY`
+    steps later.
 
     Attributes:
         threaded: whether the latest choice was the threads.
     """
 
     PROBE_EVERY = 32
-    """Steps from a change of way to the first probe of the other."""
-    PROBE_AT_MOST = 2048
+    """Steps from a change of way to the first probe of the other, and the fewest between two probes."""
+    PROBE_AT_MOST = 16384
     """The most steps between two probes."""
     PROBE_STEPS = 3
     """Steps of a probe: the first untimed, the faster of the others its time."""
     LOSING = 1.5
     """A probe whose first timed step takes this many times the way in use ends there, lost (beside a busy core a
     threaded step takes several times a serial one: each step more of a probe costs that)."""
+    BUDGET = 0.02
+    """The most of the stepping time that lost probes take."""
     WEIGHT = 0.25
     """Weight of a step's time in its way's moving average."""
 
     def __init__(self):
         self.threaded = True
         self.steps = 0
-        self.interval = self.PROBE_EVERY
         self.next_probe = 4 + self.PROBE_EVERY
         self.seconds = [math.nan, math.nan]
         """Moving averages of a step's time (s): on the calling thread, on the threads."""
         self._last: bool | None = None  # the way of the latest step
         self._probe = math.inf  # the fastest timed step of the probe under way (s)
+        self._spent = 0.0  # the time of the steps of the probe under way (s)
+        self._taken = 0  # and their number
 
     def next(self) -> bool:
         """Whether the next step runs on the threads."""
@@ -112,11 +119,16 @@ class ThreadChoice:
     def record(self, threaded: bool, seconds: float) -> None:
         """Takes the time of a step that ran on the threads or not."""
         follows, self._last = self._last == threaded, threaded
+        if self.steps > 4 and threaded != self.threaded:  # a step of a probe: what it costs
+            self._spent += seconds
+            self._taken += 1
         if not follows:
             return
         if self.steps <= 4:  # the start: the second step of each way
             self.seconds[threaded] = seconds
             self.threaded = math.isnan(self.seconds[False]) or self.seconds[True] < self.seconds[False]
+            if self.steps == 4:  # the losing way's timed step is a lost probe (its first may have compiled)
+                self._schedule(self.seconds[not self.threaded], 1)
             return
         probe_ends = self.steps == self.next_probe + self.PROBE_STEPS - 1
         if threaded != self.threaded:  # a timed step of a probe
@@ -127,16 +139,23 @@ class ThreadChoice:
             self.seconds[threaded], self._probe = self._probe, math.inf
         else:
             self.seconds[threaded] += self.WEIGHT * (seconds - self.seconds[threaded])
-        serial, parallel = self.seconds
         was = self.threaded
-        self.threaded = parallel < serial
-        if probe_ends:
-            won = self.threaded != was
-            self.interval = self.PROBE_EVERY if won else min(2 * self.interval, self.PROBE_AT_MOST)
-            self.next_probe = self.steps + self.interval
-        elif self.threaded != was:  # the way in use slowed down past the other's last time
-            self.interval = self.PROBE_EVERY
-            self.next_probe = self.steps + self.interval
+        self.threaded = self.seconds[True] < self.seconds[False]
+        if self.threaded != was:  # a probe won, or the way in use slowed down past the other's last time
+            self._schedule(0.0, 0)
+        elif probe_ends:
+            self._schedule(self._spent, self._taken)
+
+    def _schedule(self, spent: float, taken: int) -> None:
+        """Sets the next probe after a probe of ``taken`` steps that took ``spent`` seconds in all lost (or after the
+        start, whose losing way is such a probe), or after a change of way (``taken`` 0): enough steps later that the
+        probe's cost, beyond as many steps of the way in use, is :data:`BUDGET` of the time between."""
+        step = self.seconds[self.threaded]
+        cost = spent - taken * step
+        self.next_probe = self.steps + min(
+            max(self.PROBE_EVERY, math.ceil(cost / (self.BUDGET * step))), self.PROBE_AT_MOST
+        )
+        self._spent, self._taken = 0.0, 0
 
 
 def entry_point(kernel, args: tuple):
