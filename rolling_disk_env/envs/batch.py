@@ -75,10 +75,10 @@ class ThreadChoice:
 
     A probe that loses costs the time its steps took beyond the way in use, and that cost sets when the next comes: at
     most :data:`BUDGET` of the time spent stepping goes to lost probes. Idle, a serial probe loses a fraction of a
-    step and comes back every hundred steps or so; beside a busy core, a thread is preempted for whole time slices and
-    a threaded probe loses some fifty serial steps (N = 4096, ``benchmarks/bench_threads.py``), so the next comes
-    thousands of steps later. After a probe that wins, the ways swap and the next probe comes :data:`PROBE_EVERY`
-    steps later.
+    step and comes back every hundred steps or so; beside a busy core, a thread is preempted for whole time slices
+    and a threaded probe loses some 14 ms, seventy serial steps (N = 4096, ``benchmarks/bench_threads.py``), so the
+    next comes thousands of steps later. After a probe that wins, the ways swap and the next probe comes
+    :data:`PROBE_EVERY` steps later.
 
     Attributes:
         threaded: whether the latest choice was the threads.
