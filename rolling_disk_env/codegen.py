@@ -342,6 +342,14 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
     return "\n".join(lines) + "\n"
 
 
+_MODEL_IMPORTS = """from math import sqrt
+
+from rolling_disk_env.jit import inline_kernel
+from rolling_disk_env.trig import sincos
+"""
+"""The imports of the generated models' modules (``_generated/kernels.py``, ``_generated/sliding.py``)."""
+
+
 def generate_kernels() -> str:
     """Source of ``_generated/kernels.py``."""
     generated = equations()
@@ -350,16 +358,7 @@ def generate_kernels() -> str:
         for tableau in TABLEAUS:
             functions.append(_step_source(model, generated[f"{model}_derivative"], tableau))
     header = _HEADER.format(title="The rolling-disk model for one disk.", source="``rolling_disk_env/derivation.py``")
-    imports = "\n".join(
-        [
-            "from math import sqrt",
-            "",
-            "from rolling_disk_env.jit import inline_kernel",
-            "from rolling_disk_env.trig import sincos",
-            "",
-        ]
-    )
-    return header + "\n" + imports + "\n\n" + "\n\n".join(functions)
+    return header + "\n" + _MODEL_IMPORTS + "\n\n" + "\n\n".join(functions)
 
 
 _SLIDING_HEADER = '''"""The sliding disk for one disk: the paper's frozen lake, with dry friction at the contact.
@@ -460,16 +459,7 @@ def generate_sliding() -> str:
             "\n    vertical ground reaction on the disk, N = m (g + c3'') (N), and the slip velocity (m/s).",
         ),
     ]
-    imports = "\n".join(
-        [
-            "from math import sqrt",
-            "",
-            "from rolling_disk_env.jit import inline_kernel",
-            "from rolling_disk_env.trig import sincos",
-            "",
-        ]
-    )
-    return _SLIDING_HEADER + "\n" + imports + "\n\n" + "\n\n".join(functions) + _SLIDING_COMPOSED
+    return _SLIDING_HEADER + "\n" + _MODEL_IMPORTS + "\n\n" + "\n\n".join(functions) + _SLIDING_COMPOSED
 
 
 FINISH_TEMPLATE = """\

@@ -42,8 +42,6 @@ RUNNING, FALLEN, OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT, REACHED = ra
 """Termination codes of a disk after a step: the episode goes on; the task's own (a task's ``termination`` returns
 RUNNING, FALLEN or REACHED); the integrator leaving the model's domain, the contact needing more friction than
 ``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""
-TERMINATIONS = (None, "fallen", "out_of_domain", "slipped", "lifted_off", "substep_limit", "reached")
-"""``info["termination"]`` of each code."""
 
 STATE = 0
 TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_SUM = range(8, 16)
@@ -62,7 +60,8 @@ vectorize."""
 ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD, STATUS = range(8, 15)
 """Rows of an info block (a column per disk, and padding) after the 8 state rows: energy (J), contact force
 (N), normal force (N), the friction coefficient the contact needs, the reward, the termination code
-(:data:`TERMINATIONS`); then the reward terms from row TERMS, then the observation (clipped to its bounds)."""
+(``rolling_disk_env.Termination``); then the reward terms from row TERMS, then the observation (clipped to its
+bounds)."""
 TERMS = 15
 TERMINATED, TRUNCATED, SUCCESS = range(3)
 """Rows of a flags block (booleans, one column per disk)."""

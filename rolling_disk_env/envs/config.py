@@ -34,15 +34,32 @@ Coulomb friction of ``friction_coefficient`` (default 0); their hybrid by Coulom
 PAINLEVE_BOUND = math.sqrt(5) / 2
 """The sliding model's normal force stays finite for friction coefficients below sqrt(5)/2 (Painleve's paradox
 above: see ``rolling_disk_env/_generated/sliding.py``)."""
-Termination = enum.IntEnum(
-    "Termination", [("NONE", 0), *((name.upper(), code) for code, name in enumerate(engine.TERMINATIONS) if code)]
-)
-Termination.__doc__ = """``info["termination"]``, an int at every step: ``NONE`` (0) while the episode has not
-terminated (it runs on, or was truncated), else why it terminated: ``FALLEN``, ``REACHED``, ``LIFTED_OFF``,
-``SLIPPED``, ``OUT_OF_DOMAIN`` or ``SUBSTEP_LIMIT`` (the engine's termination codes; ``Termination(code).name``).
 
-A number, not a name, so that every wrapper that batches infos stacks it: Gymnasium's vector envs into an int array,
-Tianshou's buffers, and TorchRL's info reader, which takes every info key of a vector env as a tensor."""
+
+class Termination(enum.IntEnum):
+    """``info["termination"]``, an int at every step: why the episode terminated, or ``NONE``
+    (``Termination(code).name`` names a code; the values are the engine's codes, :data:`rolling_disk_env.engine.RUNNING`
+    and after).
+
+    A number, not a name, so that every wrapper that batches infos stacks it: Gymnasium's vector envs into an int array,
+    Tianshou's buffers, and TorchRL's info reader, which takes every info key of a vector env as a tensor."""
+
+    NONE = engine.RUNNING
+    """The episode has not terminated: it runs on, or was truncated."""
+    FALLEN = engine.FALLEN
+    """The lean passed the task's ``fall_lean``."""
+    OUT_OF_DOMAIN = engine.OUT_OF_DOMAIN
+    """The integration left the model's domain (a lean beyond :data:`rolling_disk_env.LEAN_LIMIT`, near the flat
+    disk where the model is singular, or a value that is not finite); the state is the one at the start of the
+    step."""
+    SLIPPED = engine.SLIPPED
+    """Rolling needed more friction than ``friction_coefficient`` (``contact="rolling"`` with a finite one)."""
+    LIFTED_OFF = engine.LIFTED_OFF
+    """The normal force vanished: the disk would leave the ground."""
+    SUBSTEP_LIMIT = engine.SUBSTEP_LIMIT
+    """``"dopri5"`` took :data:`rolling_disk_env.engine.MAX_ADAPTIVE_SUBSTEPS` steps in one control period."""
+    REACHED = engine.REACHED
+    """The task's goal was reached (``goto``)."""
 
 
 def task_option_names(task_class: type[Task]) -> list[str]:
