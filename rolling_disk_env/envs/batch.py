@@ -107,7 +107,6 @@ class ThreadChoice:
         self._last: bool | None = None  # the way of the latest step
         self._probe = math.inf  # the fastest timed step of the probe under way (s)
         self._spent = 0.0  # the time of the steps of the probe under way (s)
-        self._taken = 0  # and their number
 
     def next(self) -> bool:
         """Whether the next step runs on the threads."""
@@ -121,7 +120,6 @@ class ThreadChoice:
         follows, self._last = self._last == threaded, threaded
         if self.steps > 4 and threaded != self.threaded:  # a step of a probe: what it costs
             self._spent += seconds
-            self._taken += 1
         if not follows:
             return
         if self.steps <= 4:  # the start: the second step of each way
@@ -143,8 +141,8 @@ class ThreadChoice:
         self.threaded = self.seconds[True] < self.seconds[False]
         if self.threaded != was:  # a probe won, or the way in use slowed down past the other's last time
             self._schedule(0.0, 0)
-        elif probe_ends:
-            self._schedule(self._spent, self._taken)
+        elif probe_ends:  # lost, after the steps from next_probe to this one
+            self._schedule(self._spent, self.steps - self.next_probe + 1)
 
     def _schedule(self, spent: float, taken: int) -> None:
         """Sets the next probe after a probe of ``taken`` steps that took ``spent`` seconds in all lost (or after the
@@ -155,7 +153,7 @@ class ThreadChoice:
         self.next_probe = self.steps + min(
             max(self.PROBE_EVERY, math.ceil(cost / (self.BUDGET * step))), self.PROBE_AT_MOST
         )
-        self._spent, self._taken = 0.0, 0
+        self._spent = 0.0
 
 
 def entry_point(kernel, args: tuple):
