@@ -471,7 +471,7 @@ FINISH_TEMPLATE = """\
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
 {report}{terms_loop}
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, {velocity}, code, lanes[EFFORT, k, i], goal, settings)
 {terms}
         info[REWARD, k, i] = {reward}
         observation = task.observe(x, goal, settings)
@@ -486,6 +486,7 @@ numba counts references to the arrays passed to a function, and those calls keep
 TERMS_LOOP = """
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = {state}
         goal = {goal}
         code = np.int64(info[STATUS, k, i])"""
@@ -733,11 +734,13 @@ def generate_steps(task) -> str:
     rolling = {
         "{contact}": "engine.contact(x, tau_spin, tau_steer, m, g, r)",
         "{contact_status}": "engine.contact_status(contact[3], contact[4], friction)",
+        "{velocity}": "engine.centre_velocity(x, m, g, r)",
         "{sliding_report}": "",
     }
     hybrid = {  # the "sliding" and "coulomb" contacts: the 10-state is `state`, its 8 rolling components `x`
         "{contact}": "engine.hybrid_contact(state, torques, friction, coulomb, disk)",
         "{contact_status}": "(LIFTED_OFF if not contact[3] > 0.0 else RUNNING)",
+        "{velocity}": "(state[5], state[6])",
         "{sliding_report}": "\n"
         + _stores(
             "info",

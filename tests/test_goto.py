@@ -140,6 +140,35 @@ def test_progress_is_the_rate_at_which_the_distance_shrinks():
             assert info["reward_progress"] == pytest.approx(-(after - before) / 0.02 / speed, abs=0.03)
 
 
+@pytest.mark.parametrize(
+    ("contact", "mu"),
+    [("sliding", 0.0), ("coulomb", 0.05)],
+    ids=["frozen lake", "coulomb mu=0.05, slipping"],
+)
+def test_progress_follows_a_sliding_centre_off_the_rolling_constraint(contact, mu):
+    # A vertical disk that does not spin, its centre sliding towards the target at 1.5 m/s: the rolling constraint would
+    # say it stands still. The same independent computation as above: the finite difference of the distance.
+    env = make(contact=contact, friction_coefficient=mu)
+    env.reset(seed=5)
+    x, y = env.unwrapped.goal["x"], env.unwrapped.goal["y"]
+    c1, c2 = x - 4.0, y - 3.0  # 5 m away, the target along (0.8, 0.6)
+    _, info = env.reset(seed=5, options={"state": [c1, c2, 0.0, 0.0, 0.0, 1.2, 0.9, 0.0, 0.0, 0.0]})
+    speed = env.unwrapped.task.cruise_speed
+    progress = []
+    for _ in range(20):
+        before = math.dist(info["state"][:2], (x, y))
+        _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
+        assert not terminated and info["sliding"]
+        after = math.dist(info["state"][:2], (x, y))
+        assert info["reward_progress"] == pytest.approx(-(after - before) / 0.02 / speed, abs=0.01)
+        progress.append(info["reward_progress"])
+    # Newton's law for the centre: on the frozen lake no horizontal force, it glides on at 1.5 m/s; kinetic friction,
+    # mu N with N = m g for a vertical disk, slows it by at most mu g along the way to the target.
+    assert progress[0] == pytest.approx(1.5 / speed, abs=0.01)
+    slowing = (progress[0] - progress[-1]) * speed / (19 * 0.02)
+    assert (slowing == pytest.approx(0.0, abs=1e-9)) if mu == 0.0 else (0.5 * mu * 9.81 < slowing <= mu * 9.81)
+
+
 def test_the_baseline_beats_the_passive_disk_on_10_seeds():
     baseline = evaluate(GotoLQR(task="goto"), "baseline", episodes=10, seed=123, task="goto")
     passive = evaluate(PassiveAgent(), "passive", episodes=10, seed=123, task="goto")

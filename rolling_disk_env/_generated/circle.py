@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.circle as task
 
-TASK_SOURCE = "8faa2fae80013f15efffc892d82387fee37a2b301398fabd3f8a24946a0baa6b"
+TASK_SOURCE = "6412dc6e2a6501a61619cb528d9d04b335fe92413d968e25361027f91b162a34"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
@@ -189,13 +189,14 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -317,13 +318,14 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -445,13 +447,14 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -557,13 +560,14 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i], goals[5, k, i])
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -657,7 +661,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, (state[5], state[6]), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)

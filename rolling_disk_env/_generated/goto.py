@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.goto as task
 
-TASK_SOURCE = "e75bb46de7779a78b095a2b15842cbd74ab39f52c2b195cc803522c377785477"
+TASK_SOURCE = "b9e62715ac4eb562b64e44d7ac240aa979bf4dca6b7ea9be4d94d09bcf66fe77"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 7
 """The first row of the observation in an info block, after the reward terms."""
@@ -176,7 +176,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
-        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i])
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
@@ -187,7 +187,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[TERMS + 4, k, i], info[TERMS + 5, k, i], info[TERMS + 6, k, i] = terms[4], terms[5], terms[6]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3] + weights[4] * terms[4] + weights[5] * terms[5] + weights[6] * terms[6]
@@ -294,7 +294,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
-        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i])
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
@@ -305,7 +305,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[TERMS + 4, k, i], info[TERMS + 5, k, i], info[TERMS + 6, k, i] = terms[4], terms[5], terms[6]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3] + weights[4] * terms[4] + weights[5] * terms[5] + weights[6] * terms[6]
@@ -412,7 +412,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
-        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i])
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
@@ -423,7 +423,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[TERMS + 4, k, i], info[TERMS + 5, k, i], info[TERMS + 6, k, i] = terms[4], terms[5], terms[6]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3] + weights[4] * terms[4] + weights[5] * terms[5] + weights[6] * terms[6]
@@ -514,7 +514,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
-        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i])
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i])
         code = engine.contact_status(contact[3], contact[4], friction) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
@@ -525,7 +525,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[TERMS + 4, k, i], info[TERMS + 5, k, i], info[TERMS + 6, k, i] = terms[4], terms[5], terms[6]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3] + weights[4] * terms[4] + weights[5] * terms[5] + weights[6] * terms[6]
@@ -606,7 +606,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.hybrid_contact(state, torques, friction, coulomb, disk)
-        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i], goals[3, k, i], goals[4, k, i])
+        goal = (goals[0, k, i], goals[1, k, i], goals[2, k, i])
         code = (LIFTED_OFF if not contact[3] > 0.0 else RUNNING) if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
@@ -617,7 +617,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, (state[5], state[6]), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[TERMS + 4, k, i], info[TERMS + 5, k, i], info[TERMS + 6, k, i] = terms[4], terms[5], terms[6]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3] + weights[4] * terms[4] + weights[5] * terms[5] + weights[6] * terms[6]

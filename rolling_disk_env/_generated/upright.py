@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.upright as task
 
-TASK_SOURCE = "6fab28b8917c220991edf88be171207ff32850d8d239730d66c6c3c0f7a6a99a"
+TASK_SOURCE = "f169c23b5141554d89bce67ba2076d7cd9446dae52b8ae511afe44b9f642b093"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
@@ -189,13 +189,14 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -311,13 +312,14 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -433,13 +435,14 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -539,13 +542,14 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
     # The reward terms, the observation and the flags in a loop of their own (Task.terms_loop).
     for i in range(lanes.shape[2]):
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)
@@ -633,7 +637,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, (state[5], state[6]), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
         observation = task.observe(x, goal, settings)

@@ -9,9 +9,11 @@ episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :at
   uniformly in the task's goal ranges, then its initial-state ranges (an array, in their keys' order), for the disk
   ``(m, g, r)``;
 * ``observe(x, goal, settings)``: the observation (unclipped: the engine clips it to the bounds);
-* ``reward_terms(x, effort, goal, settings)``: each named term, in [-1, 1], in the order of
-  :attr:`Task.default_reward_weights`; ``effort`` is the mean squared normalized action, in [0, 1]; the engine
-  weights and sums them;
+* ``reward_terms(x, velocity, code, effort, goal, settings)``: each named term, in [-1, 1], in the order of
+  :attr:`Task.default_reward_weights`; ``velocity`` is the centre's horizontal velocity ``(dc1, dc2)`` (m/s: from the
+  rolling constraint, or the sliding disk's own under the ``"sliding"`` and ``"coulomb"`` contacts), ``code`` the
+  step's termination code (:class:`rolling_disk_env.Termination`: RUNNING, the task's own, or the engine's,
+  such as LIFTED_OFF), ``effort`` the mean squared normalized action, in [0, 1]; the engine weights and sums them;
 * ``termination(x, goal, settings)``: the engine's code :data:`~rolling_disk_env.engine.RUNNING`,
   :data:`~rolling_disk_env.engine.FALLEN` or :data:`~rolling_disk_env.engine.REACHED`;
 * ``tracking_error(x, goal, settings)``: the error whose mean decides success (only for the success rule

@@ -179,7 +179,7 @@ def observe(x, goal, settings):
 
 
 @inline_kernel
-def reward_terms(x, effort, goal, settings):
+def reward_terms(x, velocity, code, effort, goal, settings):
     alive = 1.0
     radial = penalty(radial_error(x, goal))
     speed = penalty((x[DPHI] - goal[TARGET_DPHI]) / goal[TARGET_DPHI])

@@ -18,14 +18,14 @@ import math
 from typing import ClassVar
 
 from rolling_disk_env.dynamics import is_number, number_pair
-from rolling_disk_env.engine import FALLEN, REACHED, RUNNING
+from rolling_disk_env.engine import FALLEN, LIFTED_OFF, REACHED, RUNNING
 from rolling_disk_env.jit import inline_kernel, kernel
-from rolling_disk_env.tasks.base import C1, C2, DPHI, DPSI, DTHETA, GRAVITY, PSI, RADIUS, REACH, THETA, Task, penalty
+from rolling_disk_env.tasks.base import C1, C2, DPHI, DPSI, DTHETA, PSI, RADIUS, REACH, THETA, Task, penalty
 from rolling_disk_env.trig import sincos
 
 # Positions in this task's arrays.
 CRUISE_SPEED, FALL_LEAN, REACH_RADIUS = range(3)  # settings
-TARGET_X, TARGET_Y, TARGET_DPHI, DISK_GRAVITY, DISK_RADIUS = range(5)  # goal
+TARGET_X, TARGET_Y, TARGET_DPHI = range(3)  # goal
 (
     DRAWN_DISTANCE,  # goal ranges
     DRAWN_BEARING,
@@ -56,8 +56,9 @@ class GotoTask(Task):
         is how far the disk would pass from the target if it rolled straight on, d |sin beta| with the target ahead,
         d with it behind; ``speed`` -min(((dphi - dphi*) / dphi*)^2, 1); ``upright`` -min((theta / fall_lean)^2, 1);
         ``effort`` minus the mean squared normalized action; ``reached`` +1 on the step the target is reached (the
-        episode's last); ``fallen`` -1 on the step the episode ends by a fall or a lift-off (the normal force
-        vanishing, which the engine reports as ``"lifted_off"``). Default weights 1, 0.2, 0.3, 0.5, 0.1, 100, 100.
+        episode's last, ``Termination.REACHED``); ``fallen`` -1 on the step the episode ends by a fall or a lift-off
+        (``Termination.FALLEN``, ``Termination.LIFTED_OFF``: the normal force vanishing). Default weights 1, 0.2, 0.3,
+        0.5, 0.1, 100, 100.
 
     Why these terms: a success is worth its distance's progress plus 100 and a fall costs 100, so that ending an
     episode by falling, or by spinning the disk off the ground, never pays (without ``fallen`` on a lift-off, PPO
@@ -66,9 +67,10 @@ class GotoTask(Task):
     beside targets). ``speed`` leads to the cruise speed, at which the disk stabilizes itself (without it, one PPO
     seed in three settled on spinning the disk about the vertical like a top instead).
 
-    The centre's velocity is the rolling kinematics of the model, ``dc/dt = r (dphi - dpsi sin theta) (sin psi,
-    -cos psi) + r cos(theta) dtheta (cos psi, sin psi)``, so ``progress`` reads
-    ``r ((dphi - dpsi sin theta) cos beta + cos(theta) dtheta sin beta) / cruise_speed``.
+    ``progress`` is ``dc/dt . u / cruise_speed``, ``u`` the unit vector from the centre to the target and ``dc/dt``
+    the centre's velocity: rolling, ``r (dphi - dpsi sin theta) (sin psi, -cos psi) + r cos(theta) dtheta (cos psi,
+    sin psi)`` (the rolling constraint), so ``progress`` reads ``r ((dphi - dpsi sin theta) cos beta + cos(theta)
+    dtheta sin beta) / cruise_speed``; under the ``"sliding"`` and ``"coulomb"`` contacts, the sliding centre's own.
 
     Initial state: ``c1 = c2 = 0``; ``phi``, ``psi``, ``theta``, ``dtheta``, ``dphi``, ``dpsi`` uniform in
     ``initial_ranges`` (rad, rad/s; by default phi and psi in [-pi, pi], |theta| <= 0.05, dphi in [0.8, 1.2], below
@@ -92,7 +94,7 @@ class GotoTask(Task):
         "reached": 100.0,
         "fallen": 100.0,
     }
-    goal_names = ("x", "y", "dphi", "gravity", "disk_radius")
+    goal_names = ("x", "y", "dphi")
     setting_names = ("cruise_speed", "fall_lean", "reach_radius")
     default_initial_ranges: ClassVar[dict[str, tuple[float, float]]] = {
         "phi": (-math.pi, math.pi),
@@ -166,45 +168,29 @@ def start(drawn, disk, settings):
     direction ``(sin psi, -cos psi)``, that is at the angle ``psi - pi/2 + bearing`` from the x axis."""
     phi, psi, theta = drawn[DRAWN_PHI], drawn[DRAWN_PSI], drawn[DRAWN_THETA]
     distance, direction = drawn[DRAWN_DISTANCE], psi - 0.5 * math.pi + drawn[DRAWN_BEARING]
-    r = disk[RADIUS]
-    goal = (
-        distance * math.cos(direction),
-        distance * math.sin(direction),
-        settings[CRUISE_SPEED] / r,
-        disk[GRAVITY],
-        r,
-    )
+    goal = (distance * math.cos(direction), distance * math.sin(direction), settings[CRUISE_SPEED] / disk[RADIUS])
     x = (0.0, 0.0, phi, theta, psi, drawn[DRAWN_DPHI], drawn[DRAWN_DTHETA], drawn[DRAWN_DPSI])
     return goal, x
+
+
+@inline_kernel
+def to_target(x, goal):
+    """``(d, u1, u2)``: the centre's horizontal distance to the target (m) and the unit vector from the centre
+    towards it (0 at the target)."""
+    dx, dy = goal[TARGET_X] - x[C1], goal[TARGET_Y] - x[C2]
+    distance = math.sqrt(dx * dx + dy * dy)
+    scale = 1.0 / (distance + 1e-9)
+    return distance, dx * scale, dy * scale
 
 
 @inline_kernel
 def target(x, goal):
     """``(d, sin beta, cos beta)``: the centre's horizontal distance to the target (m) and the sine and cosine of
     the target's bearing from the rolling direction (both 0 at the target)."""
-    dx, dy = goal[TARGET_X] - x[C1], goal[TARGET_Y] - x[C2]
-    distance = math.sqrt(dx * dx + dy * dy)
+    distance, u1, u2 = to_target(x, goal)
     sin_psi, cos_psi = sincos(x[PSI])
-    scale = 1.0 / (distance + 1e-9)
-    # Rolling direction f = (sin psi, -cos psi): cos beta = f . u, sin beta = f x u, u the unit vector to the target.
-    return distance, (sin_psi * dy + cos_psi * dx) * scale, (sin_psi * dx - cos_psi * dy) * scale
-
-
-@inline_kernel
-def lifted_off(x, goal):
-    """Whether the ground's normal force on the disk vanishes, ``N = m (g + c3'') <= 0``: the contact the model
-    assumes ends (the engine then ends the episode, ``"lifted_off"``). The centre's height is ``r cos(theta)`` and
-    ``ddtheta`` has no input term, so N does not depend on the torques."""
-    r, theta = goal[DISK_RADIUS], x[THETA]
-    sin_theta, cos_theta = sincos(theta)
-    dpsi = x[DPSI]
-    # The model's lean equation (thin uniform disk, no input term).
-    ddtheta = (
-        cos_theta * sin_theta * dpsi * dpsi
-        - 1.2 * x[DPHI] * cos_theta * dpsi
-        + 0.8 * goal[DISK_GRAVITY] * sin_theta / r
-    )
-    return not goal[DISK_GRAVITY] - r * (cos_theta * x[DTHETA] * x[DTHETA] + sin_theta * ddtheta) > 0.0
+    # Rolling direction f = (sin psi, -cos psi): cos beta = f . u, sin beta = f x u.
+    return distance, sin_psi * u2 + cos_psi * u1, sin_psi * u1 - cos_psi * u2
 
 
 @inline_kernel
@@ -214,22 +200,19 @@ def observe(x, goal, settings):
 
 
 @inline_kernel
-def reward_terms(x, effort, goal, settings):
+def reward_terms(x, velocity, code, effort, goal, settings):
     distance, sin_bearing, cos_bearing = target(x, goal)
     theta = x[THETA]
-    sin_theta, cos_theta = sincos(theta)
-    forward = x[DPHI] - x[DPSI] * sin_theta
-    approach = goal[DISK_RADIUS] * (forward * cos_bearing + cos_theta * x[DTHETA] * sin_bearing)
-    progress = min(max(approach / settings[CRUISE_SPEED], -1.0), 1.0)
+    _, u1, u2 = to_target(x, goal)
+    progress = min(max((velocity[0] * u1 + velocity[1] * u2) / settings[CRUISE_SPEED], -1.0), 1.0)
     # The miss distance if the disk rolled straight on: d |sin beta| ahead, d behind.
     miss = distance * abs(sin_bearing) if cos_bearing > 0.0 else distance
     aim = penalty(miss / AIM_SCALE)
     speed = penalty((x[DPHI] - goal[TARGET_DPHI]) / goal[TARGET_DPHI])
     upright = penalty(theta / settings[FALL_LEAN])
-    # | and & rather than "or" and "and": both sides are evaluated, so no branch keeps the step's loop scalar.
-    fallen = (abs(theta) > settings[FALL_LEAN]) | lifted_off(x, goal)
-    reached = 1.0 if (distance <= settings[REACH_RADIUS]) & (not fallen) else 0.0
-    return (progress, aim, speed, upright, -effort, reached, -1.0 if fallen else 0.0)
+    # | rather than "or": both sides are evaluated, so no branch keeps the step's loop scalar.
+    fallen = (code == FALLEN) | (code == LIFTED_OFF)
+    return (progress, aim, speed, upright, -effort, 1.0 if code == REACHED else 0.0, -1.0 if fallen else 0.0)
 
 
 @inline_kernel
