@@ -251,12 +251,13 @@ def _weighted(weights, slopes: list[str]) -> str:
     return " + ".join(terms).replace("+ -", "- ")
 
 
-def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
+def _step_source(model: str, equations: Equations, tableau: Tableau, given_angles: bool = False) -> str:
     """One step of ``tableau`` for one disk of ``model``, its stages written out.
 
     Stage ``s`` evaluates the derivative at the state ``{component}_{s}`` and names its slopes ``k{s}_{component}``;
     a slope that is a velocity of the state is that velocity's stage value, and what a stage does not need is not
-    computed.
+    computed. With ``given_angles``, ``{model}_{tableau}_step_from`` takes the first stage's sines and cosines (those
+    of :func:`_angles_source`'s ``angles(x)``) as an argument, ``trig``, instead of computing them.
     """
     state = list(equations.state)
     velocities = set(state[-3:])
@@ -276,7 +277,7 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
     argument = "x" if len(state) == 8 else "y"
     tolerances = ("rtol", "atol") if tableau.error else ()
     returns = "the new state and the error norm of the step (accept it when <= 1)" if tableau.error else "the new state"
-    name = f"{model}_{tableau.name}_step"
+    name = f"{model}_{tableau.name}_step" + ("_from" if given_angles else "")
     body = [f"{', '.join(map(str, state))} = {argument}"]
     body += [f"{symbol} = {_PRINTER.doprint(expr)}" for symbol, expr in replacements if symbol in once]
     slopes: list[dict] = []
@@ -310,7 +311,10 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
             body.append("# stage 1: at x")
         names |= {t: sp.Symbol(f"{t}_{stage + 1}") for pair in _ANGLES.values() for t in pair}
         names |= {symbol: sp.Symbol(f"{symbol}_{stage + 1}") for symbol, _ in required}
-        body += _trig_lines(read, names)
+        if given_angles and not stage:
+            body.append(f"{', '.join(str(names[t]) for pair in _ANGLES.values() for t in pair)} = trig")
+        else:
+            body += _trig_lines(read, names)
         body += [f"{names[symbol]} = {_PRINTER.doprint(expr.xreplace(names))}" for symbol, expr in required]
         current = {}
         for c, expr in outputs.items():
@@ -337,7 +341,9 @@ def _step_source(model: str, equations: Equations, tableau: Tableau) -> str:
     else:
         body.append(f"return ({new_state})")
     doc = f"One step of dt seconds of {tableau.doc} on the {_MODEL_NAMES[model]} model; returns {returns}."
-    signature = _signature(name, argument, ("dt",), tolerances)
+    if given_angles:
+        doc = doc[:-1] + "; ``trig`` is ``angles(x)``, which the caller has."
+    signature = _signature(name, argument, ("trig", "dt") if given_angles else ("dt",), tolerances)
     lines = ["@inline_kernel", signature, f'    """{doc}"""', *(f"    {line}" for line in body)]
     return "\n".join(lines) + "\n"
 
@@ -350,13 +356,41 @@ from rolling_disk_env.trig import sincos
 """The imports of the generated models' modules (``_generated/kernels.py``, ``_generated/sliding.py``)."""
 
 
+def _angles_source() -> str:
+    """``angles(x)``: the sines and cosines of the full model's angles, in the order the steps ``_from`` take them."""
+    state, names = list(d.state), ", ".join(str(t) for pair in _ANGLES.values() for t in pair)
+    doc = (
+        f"``({names})`` of the full model's state x, what the first stage of a step\n"
+        "    from x evaluates. The vector env keeps them from the end of a step, which computes them for the contact\n"
+        "    forces, to the start of the next (its lanes rows ``engine.ANGLES``)."
+    )
+    lines = ["@inline_kernel", "def angles(x):", f'    """{doc}"""']
+    for angle, (sine, cosine) in _ANGLES.items():
+        lines.append(f"    {sine}, {cosine} = sincos(x[{state.index(angle)}])")
+    lines.append(f"    return {names}")
+    return "\n".join(lines) + "\n"
+
+
+def _from_angles_source(tableau: Tableau) -> str:
+    """The full model's step of a fixed-step ``tableau``, as its step ``_from`` its state's :func:`_angles_source`."""
+    name, arguments = f"state_{tableau.name}_step", "dt, tau_spin, tau_steer, m, g, r"
+    doc = f"One step of dt seconds of {tableau.doc} on the {_MODEL_NAMES['state']} model; returns the new state."
+    lines = ["@inline_kernel", _signature(name, "x", ("dt",)), f'    """{doc}"""']
+    return "\n".join([*lines, f"    return {name}_from(x, angles(x), {arguments})"]) + "\n"
+
+
 def generate_kernels() -> str:
-    """Source of ``_generated/kernels.py``."""
+    """Source of ``_generated/kernels.py``: the model's functions, then each integrator's step of each model (the
+    full model's fixed steps as steps ``_from`` the state's :func:`_angles_source`, which the vector env keeps)."""
     generated = equations()
     functions = [_function_source(name, eqs) for name, eqs in generated.items()]
+    functions.append(_angles_source())
     for model in ("state", "lean"):
         for tableau in TABLEAUS:
-            functions.append(_step_source(model, generated[f"{model}_derivative"], tableau))
+            from_angles = model == "state" and not tableau.error
+            functions.append(_step_source(model, generated[f"{model}_derivative"], tableau, from_angles))
+            if from_angles:
+                functions.append(_from_angles_source(tableau))
     header = _HEADER.format(title="The rolling-disk model for one disk.", source="``rolling_disk_env/derivation.py``")
     return header + "\n" + _MODEL_IMPORTS + "\n\n" + "\n\n".join(functions)
 
@@ -504,6 +538,7 @@ HANDOVER = {
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = {state}
         code = np.int64(info[STATUS, k, i])
+{store_angles}
 """,
     "contact": """
 {store_state}
@@ -616,6 +651,7 @@ def reset_share(k, resets, batch, setup, out):
         for j in range(len(goal)):
             goals[j, k, i] = goal[j]
 {store_state}
+{store_angles}
         lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
         lanes[STEP_SIZE, k, i] = config[PERIOD]
         steps[k, i] = 0
@@ -654,13 +690,16 @@ _ADVANCE = {
                 tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
                 m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
                 x = {state_substep}
-                x = kernels.state_{method}_step(x, dt, tau_spin, tau_steer, m, g, r)
+                trig = {angles}
+                x = kernels.state_{method}_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
 {store_substep}
+{store_angles_substep}
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = {state}
-        new = kernels.state_{method}_step(x, dt, tau_spin, tau_steer, m, g, r)
+        trig = {angles}
+        new = kernels.state_{method}_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
         kept = {kept}
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)""",
     "contact": """    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[COULOMB] > 0.0
@@ -701,6 +740,7 @@ def generate_steps(task) -> str:
         "{settings}": _row_tuple("settings", len(task.setting_names)),
         "{success_at_start}": success_at_start,
         "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8, "k, i"),
+        "{store_angles}": _store_angles(8),
         "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8, "k, i"),
     }
     step_fields = {
@@ -708,6 +748,7 @@ def generate_steps(task) -> str:
         "{state}": _row_tuple("lanes", 8, column="k, i"),
         "{state_substep}": _row_tuple("lanes", 8, column="k, i", indent=16),
         "{kept}": _row_tuple("lanes", 8, column="k, i", first="PREVIOUS + "),
+        "{angles}": _row_tuple("lanes", 4, column="k, i", first="ANGLES + "),
         "{goal}": _row_tuple("goals", len(task.goal_names), column="k, i"),
     }
     finish = _fill(
@@ -774,6 +815,7 @@ def generate_steps(task) -> str:
         fields_here = {
             **step_fields,
             "{store_substep}": store_substep,
+            "{store_angles_substep}": _store_angles(16),
             "{sliding_state}": sliding_state,
             "{method}": method,
             "{described}": described,
@@ -790,10 +832,10 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1, LAMBDA2,",
-            "    LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION,",
-            "    REWARD, RTOL, RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN,",
-            "    TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,",
+            "    ANGLES, ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1,",
+            "    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
+            "    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS,",
+            "    SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
             f"import {module.__name__} as task",
@@ -842,6 +884,12 @@ def _stores(array: str, rows: list[str], sources: list[str], indent: int, column
         targets = ", ".join(f"{array}[{rows[j]}, {column}]" for j in chunk)
         lines.append(" " * indent + f"{targets} = {', '.join(sources[j] for j in chunk)}")
     return "\n".join(lines)
+
+
+def _store_angles(indent: int) -> str:
+    """Lines keeping ``kernels.angles(x)`` of disk i's state ``x`` in its rows ANGLES of ``lanes``."""
+    rows = [f"ANGLES + {j}" for j in range(4)]
+    return " " * indent + "trig = kernels.angles(x)\n" + _stores("lanes", rows, _items("trig", 4), indent)
 
 
 def _fill(template: str, fields: dict[str, str]) -> str:

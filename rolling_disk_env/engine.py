@@ -48,14 +48,16 @@ TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_SUM = ra
 PREVIOUS = 16
 CENTRE_VELOCITY = 24
 HALF_SUM = 26
-LANES = 27
+ANGLES = 27
+LANES = 31
 """Rows of a batch's *lanes* array (a column per disk, and idle padding columns), which the step reads and writes in
 place: the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step
 size (s), the task's tracking error summed over the episode (TRACKING_SUM), with substeps the state at the start of
 the control period (8 rows from PREVIOUS), under the ``"sliding"`` and ``"coulomb"`` contacts the centre's horizontal
-velocity (dc1, dc2) (2 rows from CENTRE_VELOCITY), with which the 8 state rows make the 10-state, and the tracking
-error summed over the first half of the episode (HALF_SUM). A loop over the disks reads and writes rows, so it can
-vectorize."""
+velocity (dc1, dc2) (2 rows from CENTRE_VELOCITY), with which the 8 state rows make the 10-state, the tracking
+error summed over the first half of the episode (HALF_SUM), and the state's ``kernels.angles`` (4 rows from ANGLES:
+the sines and cosines of theta and psi, which the end of a step and the reset compute from the state they store and
+the fixed-step integrators' first stage reads). A loop over the disks reads and writes rows, so it can vectorize."""
 
 ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD, STATUS = range(8, 15)
 """Rows of an info block (a column per disk, and padding) after the 8 state rows: energy (J), contact force

@@ -172,15 +172,48 @@ def test_a_large_batch_has_shares_of_rows_of_an_odd_number_of_cache_lines(num_en
     assert np.all(np.isfinite(observations)) and np.all(np.isfinite(rewards))
 
 
-def test_the_padding_of_a_batch_takes_ordinary_dopri5_steps():
-    # Padding columns are idle disks at rest: with a step size of 0 s, dopri5 would run to its substep limit on them.
-    env = rd.RollingDiskVectorEnv(num_envs=256, integrator="dopri5")
+@pytest.mark.parametrize("integrator", ["dopri5", "rk4"])
+def test_the_padding_of_a_batch_takes_ordinary_steps(integrator):
+    # Padding columns are idle disks at rest: with a step size of 0 s, dopri5 would run to its substep limit on them;
+    # with the sines and cosines of their state (lanes rows ANGLES) left at 0, cos(theta) = 0 would make RK4's NaN.
+    env = rd.RollingDiskVectorEnv(num_envs=256, integrator=integrator)
     env.reset(seed=0)
     batch = env._batch
     out = batch.outputs()
     batch.step(np.zeros((256, 2), dtype=np.float32), out)
     padding = out.blocks[1][engine.STATUS, 256:]
     assert len(padding) > 0 and np.all(padding == 0)
+
+
+@pytest.mark.parametrize("substeps", [1, 3])
+@pytest.mark.parametrize("integrator", ["euler", "symplectic_euler", "rk4"])
+def test_the_vector_envs_steps_are_the_model_apis_to_the_last_bit(integrator, substeps):
+    # The fused step starts each disk's step from the sines and cosines of its state kept from the end of the last
+    # step or its reset (lanes rows ANGLES); the model API's loop computes them from the state. Through autoresets
+    # and a reset of some disks to given states, one kept from a state that has since changed would show here.
+    num_envs, method = 5, engine.METHODS.index(integrator)
+    env = rd.RollingDiskVectorEnv(num_envs=num_envs, integrator=integrator, substeps=substeps, max_episode_steps=6)
+    env.reset(seed=4)
+    batch, rng = env._batch, np.random.default_rng(4)
+    dt, disks = env.unwrapped.config.dt / substeps, np.ascontiguousarray(batch.disks.T)
+    resetting, compared = np.zeros(num_envs, dtype=bool), 0
+    for t in range(20):
+        if t == 9:
+            given = rng.uniform(-0.3, 0.3, (num_envs, 8))
+            env.reset(options={"reset_mask": np.array([True, False, True, False, False]), "state": given})
+            resetting[[0, 2]] = False
+        states = np.ascontiguousarray(batch.states.T)
+        actions = rng.uniform(-1.0, 1.0, (num_envs, 2)).astype(np.float32)
+        _, _, terminated, truncated, _ = env.step(actions)
+        torques = np.ascontiguousarray(batch.lanes[engine.TAU_SPIN : engine.TAU_STEER + 1, :num_envs].T)
+        status = np.zeros(num_envs, dtype=np.int8)
+        for _ in range(substeps):
+            engine.advance(method, states, torques, disks, dt, np.full(num_envs, dt), 1e-9, 1e-9, status)
+        stepped = ~resetting
+        assert np.all(status[stepped] == engine.RUNNING)
+        np.testing.assert_array_equal(batch.states.T[stepped], states[stepped])
+        resetting, compared = terminated | truncated, compared + stepped.sum()
+    assert compared >= 60
 
 
 def test_a_child_process_steps_on_one_thread():

@@ -16,10 +16,10 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1, LAMBDA2,
-    LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED, REQUIRED_FRICTION,
-    REWARD, RTOL, RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS, SUCCESS_BOUND, TAU_SPIN,
-    TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,
+    ANGLES, ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1,
+    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
+    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, STATUS, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS,
+    SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.goto as task
@@ -87,6 +87,9 @@ def reset_share(k, resets, batch, setup, out):
             goals[j, k, i] = goal[j]
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        trig = kernels.angles(x)
+        lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+        lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
         lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
         lanes[STEP_SIZE, k, i] = config[PERIOD]
         steps[k, i] = 0
@@ -144,9 +147,13 @@ def step_euler_share(k, actions, batch, setup, out, resets):
                     lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
                     lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
                 )
-                x = kernels.state_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
+                trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
+                x = kernels.state_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
                 lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
                 lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+                trig = kernels.angles(x)
+                lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+                lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
@@ -154,7 +161,8 @@ def step_euler_share(k, actions, batch, setup, out, resets):
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
-        new = kernels.state_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
+        trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
+        new = kernels.state_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
         kept = (
             lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
             lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
@@ -173,6 +181,9 @@ def step_euler_share(k, actions, batch, setup, out, resets):
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         code = np.int64(info[STATUS, k, i])
+        trig = kernels.angles(x)
+        lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+        lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
@@ -262,9 +273,13 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
                     lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
                     lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
                 )
-                x = kernels.state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
+                trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
+                x = kernels.state_symplectic_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
                 lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
                 lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+                trig = kernels.angles(x)
+                lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+                lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
@@ -272,7 +287,8 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
-        new = kernels.state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r)
+        trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
+        new = kernels.state_symplectic_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
         kept = (
             lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
             lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
@@ -291,6 +307,9 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         code = np.int64(info[STATUS, k, i])
+        trig = kernels.angles(x)
+        lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+        lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
@@ -380,9 +399,13 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
                     lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
                     lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
                 )
-                x = kernels.state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r)
+                trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
+                x = kernels.state_rk4_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
                 lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
                 lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+                trig = kernels.angles(x)
+                lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+                lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
@@ -390,7 +413,8 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
-        new = kernels.state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r)
+        trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
+        new = kernels.state_rk4_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
         kept = (
             lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
             lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
@@ -409,6 +433,9 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         code = np.int64(info[STATUS, k, i])
+        trig = kernels.angles(x)
+        lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+        lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)
@@ -511,6 +538,9 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
         code = np.int64(info[STATUS, k, i])
+        trig = kernels.angles(x)
+        lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+        lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.contact(x, tau_spin, tau_steer, m, g, r)

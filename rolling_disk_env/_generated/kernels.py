@@ -82,14 +82,23 @@ def diagnostics(x, tau_spin, tau_steer, m, g, r):
 
 
 @inline_kernel
-def state_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
-    """One step of dt seconds of explicit Euler (order 1) on the full model; returns the new state."""
+def angles(x):
+    """``(sin_theta, cos_theta, sin_psi, cos_psi)`` of the full model's state x, what the first stage of a step
+    from x evaluates. The vector env keeps them from the end of a step, which computes them for the contact
+    forces, to the start of the next (its lanes rows ``engine.ANGLES``)."""
+    sin_theta, cos_theta = sincos(x[3])
+    sin_psi, cos_psi = sincos(x[4])
+    return sin_theta, cos_theta, sin_psi, cos_psi
+
+
+@inline_kernel
+def state_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r):
+    """One step of dt seconds of explicit Euler (order 1) on the full model; returns the new state; ``trig`` is ``angles(x)``, which the caller has."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
     x2 = 1/(m*r*r)
     x3 = 2*x2
     # stage 1: at x
-    sin_theta_1, cos_theta_1 = sincos(theta)
-    sin_psi_1, cos_psi_1 = sincos(psi)
+    sin_theta_1, cos_theta_1, sin_psi_1, cos_psi_1 = trig
     x0_1 = cos_theta_1*dtheta
     x1_1 = dpsi*sin_theta_1
     x4_1 = cos_theta_1*dpsi
@@ -112,13 +121,19 @@ def state_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
 
 
 @inline_kernel
-def state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
-    """One step of dt seconds of semi-implicit Euler (order 1): velocities from the accelerations at x, then coordinates from the new velocities on the full model; returns the new state."""
+def state_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
+    """One step of dt seconds of explicit Euler (order 1) on the full model; returns the new state."""
+    return state_euler_step_from(x, angles(x), dt, tau_spin, tau_steer, m, g, r)
+
+
+@inline_kernel
+def state_symplectic_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r):
+    """One step of dt seconds of semi-implicit Euler (order 1): velocities from the accelerations at x, then coordinates from the new velocities on the full model; returns the new state; ``trig`` is ``angles(x)``, which the caller has."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
     x2 = 1/(m*r*r)
     x3 = 2*x2
     # stage 1: at x
-    sin_theta_1, cos_theta_1 = sincos(theta)
+    sin_theta_1, cos_theta_1, sin_psi_1, cos_psi_1 = trig
     x4_1 = cos_theta_1*dpsi
     x5_1 = dphi/cos_theta_1
     k1_dphi = (1/3)*dtheta*(6*sin_theta_1*x5_1 + 5*x4_1) + (10/3)*sin_theta_1*tau_steer*x2 + (1/3)*tau_spin*x3
@@ -147,14 +162,19 @@ def state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
 
 
 @inline_kernel
-def state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r):
-    """One step of dt seconds of the classical Runge-Kutta method (order 4) on the full model; returns the new state."""
+def state_symplectic_euler_step(x, dt, tau_spin, tau_steer, m, g, r):
+    """One step of dt seconds of semi-implicit Euler (order 1): velocities from the accelerations at x, then coordinates from the new velocities on the full model; returns the new state."""
+    return state_symplectic_euler_step_from(x, angles(x), dt, tau_spin, tau_steer, m, g, r)
+
+
+@inline_kernel
+def state_rk4_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r):
+    """One step of dt seconds of the classical Runge-Kutta method (order 4) on the full model; returns the new state; ``trig`` is ``angles(x)``, which the caller has."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
     x2 = 1/(m*r*r)
     x3 = 2*x2
     # stage 1: at x
-    sin_theta_1, cos_theta_1 = sincos(theta)
-    sin_psi_1, cos_psi_1 = sincos(psi)
+    sin_theta_1, cos_theta_1, sin_psi_1, cos_psi_1 = trig
     x0_1 = cos_theta_1*dtheta
     x1_1 = dpsi*sin_theta_1
     x4_1 = cos_theta_1*dpsi
@@ -225,6 +245,12 @@ def state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r):
     dtheta_new = dtheta + dt*((1/6)*k1_dtheta + (1/3)*k2_dtheta + (1/3)*k3_dtheta + (1/6)*k4_dtheta)
     dpsi_new = dpsi + dt*((1/6)*k1_dpsi + (1/3)*k2_dpsi + (1/3)*k3_dpsi + (1/6)*k4_dpsi)
     return (c1_new, c2_new, phi_new, theta_new, psi_new, dphi_new, dtheta_new, dpsi_new)
+
+
+@inline_kernel
+def state_rk4_step(x, dt, tau_spin, tau_steer, m, g, r):
+    """One step of dt seconds of the classical Runge-Kutta method (order 4) on the full model; returns the new state."""
+    return state_rk4_step_from(x, angles(x), dt, tau_spin, tau_steer, m, g, r)
 
 
 @inline_kernel

@@ -310,6 +310,7 @@ class DiskBatch:
         self.lanes = np.zeros((engine.LANES, width))
         self.lanes[engine.MASS : engine.RADIUS + 1] = np.array(config.params.constants)[:, None]
         self.lanes[engine.STEP_SIZE] = config.dt  # the padding's too: a dopri5 step of 0 s would never end
+        self.lanes[[engine.ANGLES + 1, engine.ANGLES + 3]] = 1.0  # kernels.angles of the zero state: the padding's
         self.goals = np.zeros((len(task.goal_names), width))
         self.steps = np.zeros(width, dtype=np.int64)
         # Tracking errors summed over each episode, a row per disk, for the success rule TRACK. An episode truncated
