@@ -239,17 +239,17 @@ def run_choice(choice: ThreadChoice, steps: int, seconds) -> list[bool]:
 
 
 def test_thread_choice_takes_the_faster_way_and_follows_a_change_of_load():
-    assert run_choice(ThreadChoice(), 4, lambda way: 1.0) == [False, False, True, True]  # each way twice, first untimed
+    assert run_choice(ThreadChoice(), 6, lambda way: 1.0) == [False] * 3 + [True] * 3  # a probe of each way
     choice = ThreadChoice()
     # Another process on a core: a threaded step waits for a preempted thread (35 serial steps, as measured at
-    # N = 4096). The probes cost at most ThreadChoice.BUDGET of the time, beyond the start's and the last one's (two
+    # N = 4096). The probes cost at most ThreadChoice.BUDGET of the time, beyond the start's and the last one's (three
     # threaded steps each).
     serial, threaded = 0.2e-3, 7e-3
     busy = run_choice(choice, 20_000, lambda way: threaded if way else serial)
     spent = busy.count(True) * threaded + busy.count(False) * serial
-    assert spent <= (1 + ThreadChoice.BUDGET) * len(busy) * serial + 4 * threaded  # probes backing off by doubling
+    assert spent <= (1 + ThreadChoice.BUDGET) * len(busy) * serial + 6 * threaded  # probes backing off by doubling
     # from every 32 steps to every 2048 cost 6%
-    assert busy.count(True) >= 4  # but it does probe: two steps a probe (lost at the first timed one)
+    assert busy.count(True) >= 6  # but it does probe
     assert not any(busy[-100:])
     # The load ends: the threads step twice as fast, found at the next probe and kept, serial probes aside.
     idle = run_choice(choice, ThreadChoice.PROBE_AT_MOST + 1000, lambda way: 0.1e-3 if way else serial)
@@ -276,9 +276,21 @@ def test_thread_choice_times_a_probe_by_its_fastest_step():
     for _ in range(1000):
         threaded = choice.next()
         # Serial steps take 1 ms, threaded ones 0.6 ms, but the first timed threaded step at the start and in each
-        # probe 1.4 ms (slower than a serial step, not by ThreadChoice.LOSING): the start chooses the calling thread.
-        first_timed = choice.steps == 4 or choice.steps == choice.next_probe + 1
-        choice.record(threaded, 1.4e-3 if threaded and first_timed else (0.6e-3 if threaded else 1e-3))
+        # probe 14 ms (a vCPU descheduled for a while).
+        first_timed = choice.steps == ThreadChoice.PROBE_STEPS + 2 or choice.steps == choice.next_probe + 1
+        choice.record(threaded, 14e-3 if threaded and first_timed else (0.6e-3 if threaded else 1e-3))
         ways.append(threaded)
-    assert not ways[4]
-    assert ways[-500:].count(True) >= 0.95 * 500  # found at the first probe, on the threads but for probes
+    assert ways[2 * ThreadChoice.PROBE_STEPS]  # the start chose the threads
+    assert ways[-500:].count(True) >= 0.95 * 500  # on the threads but for probes
+
+
+def test_thread_choice_stays_on_the_threads_through_single_held_up_steps():
+    """A threaded step now and then held up for 14 ms (the machine's hypervisor descheduling a vCPU) on an idle
+    machine does not take the batch off the threads, which step it twice as fast (it did for some 35 steps each time
+    while a step counted in full in the moving average)."""
+    choice, ways = ThreadChoice(), []
+    for step in range(3000):
+        threaded = choice.next()
+        choice.record(threaded, (14e-3 if step % 300 == 150 else 0.4e-3) if threaded else 0.8e-3)
+        ways.append(threaded)
+    assert ways[100:].count(True) >= 0.97 * 2900

@@ -67,11 +67,12 @@ class ThreadChoice:
     calling thread, numba's threads have gone to sleep and the first threaded step waits for them to wake (measured:
     probes of one step timed the threads at 1.5 times their steady step, at N = 4096, and kept on the calling thread a
     batch that the threads step twice as fast); after a spell on the threads, the first serial step finds half the disks
-    in the other core's cache. The first four steps try each way twice. Then the faster way is used, its time a moving
-    average of its steps (weight :data:`WEIGHT` on the latest). Now and then :data:`PROBE_STEPS` steps try the other way
-    (a probe), whose time the fastest of them sets (a single step slowed by the machine's other load would misjudge it;
-    a probe clearly lost at its first timed step ends there), so that a change of load (another process starting or
-    ending on the cores) is followed.
+    in the other core's cache. The first steps try each way as a probe does. Then the faster way is used, its time a
+    moving average of its steps (weight :data:`WEIGHT` on the latest, a step counted at most twice the average: one
+    step held up by the machine, a vCPU descheduled for some milliseconds, does not switch ways; a load that lasts
+    does, within a few steps). Now and then :data:`PROBE_STEPS` steps try the other way (a probe), whose time the
+    fastest of them sets (a single step held up would misjudge it), so that a change of load (another process starting
+    or ending on the cores) is followed.
 
     A probe that loses costs the time its steps took beyond the way in use, and that cost sets when the next comes: at
     most :data:`BUDGET` of the time spent stepping goes to lost probes. Idle, a serial probe loses a fraction of a
@@ -90,9 +91,6 @@ class ThreadChoice:
     """The most steps between two probes."""
     PROBE_STEPS = 3
     """Steps of a probe: the first untimed, the faster of the others its time."""
-    LOSING = 1.5
-    """A probe whose first timed step takes this many times the way in use ends there, lost (beside a busy core a
-    threaded step takes several times a serial one: each step more of a probe costs that)."""
     BUDGET = 0.02
     """The most of the stepping time that lost probes take."""
     WEIGHT = 0.25
@@ -101,7 +99,7 @@ class ThreadChoice:
     def __init__(self):
         self.threaded = True
         self.steps = 0
-        self.next_probe = 4 + self.PROBE_EVERY
+        self.next_probe = 2 * self.PROBE_STEPS + self.PROBE_EVERY
         self.seconds = [math.nan, math.nan]
         """Moving averages of a step's time (s): on the calling thread, on the threads."""
         self._last: bool | None = None  # the way of the latest step
@@ -111,32 +109,33 @@ class ThreadChoice:
     def next(self) -> bool:
         """Whether the next step runs on the threads."""
         self.steps += 1
-        if self.steps <= 4:
-            return self.steps > 2
+        if self.steps <= 2 * self.PROBE_STEPS:  # the start: a probe of each way
+            return self.steps > self.PROBE_STEPS
         return self.threaded != (self.next_probe <= self.steps < self.next_probe + self.PROBE_STEPS)
 
     def record(self, threaded: bool, seconds: float) -> None:
         """Takes the time of a step that ran on the threads or not."""
         follows, self._last = self._last == threaded, threaded
-        if self.steps > 4 and threaded != self.threaded:  # a step of a probe: what it costs
+        start = self.steps <= 2 * self.PROBE_STEPS  # a probe of each way
+        if not start and threaded != self.threaded:  # a step of a probe: what it costs
             self._spent += seconds
-        if not follows:
+        if not follows:  # the first step of a way
             return
-        if self.steps <= 4:  # the start: the second step of each way
-            self.seconds[threaded] = seconds
-            self.threaded = math.isnan(self.seconds[False]) or self.seconds[True] < self.seconds[False]
-            if self.steps == 4:  # the losing way's timed step is a lost probe (its first may have compiled)
-                self._schedule(self.seconds[not self.threaded], 1)
-            return
-        probe_ends = self.steps == self.next_probe + self.PROBE_STEPS - 1
-        if threaded != self.threaded:  # a timed step of a probe
+        probe_ends = False
+        if start or threaded != self.threaded:  # a timed step of a probe
             self._probe = min(self._probe, seconds)
-            probe_ends |= self._probe > self.LOSING * self.seconds[self.threaded]  # lost: no need of another
-            if not probe_ends:
+            first = 1 + self.PROBE_STEPS * threaded if start else self.next_probe
+            if self.steps < first + self.PROBE_STEPS - 1:
                 return
-            self.seconds[threaded], self._probe = self._probe, math.inf
+            self.seconds[threaded], self._probe, probe_ends = self._probe, math.inf, True
+            if start:
+                if threaded:  # both tried: the losing way's time is a lost probe's (one step of it)
+                    self.threaded = self.seconds[True] < self.seconds[False]
+                    self._schedule(self.seconds[not self.threaded], 1)
+                return
         else:
-            self.seconds[threaded] += self.WEIGHT * (seconds - self.seconds[threaded])
+            average = self.seconds[threaded]
+            self.seconds[threaded] += self.WEIGHT * (min(seconds, 2.0 * average) - average)
         was = self.threaded
         self.threaded = self.seconds[True] < self.seconds[False]
         if self.threaded != was:  # a probe won, or the way in use slowed down past the other's last time
