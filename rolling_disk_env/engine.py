@@ -215,6 +215,14 @@ def contact(x, tau_spin, tau_steer, m, g, r):
 
 
 @inline_kernel
+def centre_velocity(x, m, g, r):
+    """``(dc1, dc2)``: the horizontal velocity (m/s) of the centre of a disk rolling in the 8-state ``x``, from the
+    rolling constraint (the model's kinematic equations: the compiler drops the rest of the derivative)."""
+    slope = kernels.state_derivative(x, 0.0, 0.0, m, g, r)
+    return slope[0], slope[1]
+
+
+@inline_kernel
 def transpose(info, first, observations, k):
     """Copies the observations of the disks of share k from their columns of ``info`` (rows from ``first``) into
     their rows of ``observations``."""
@@ -331,14 +339,6 @@ def track(error_sums, lanes, steps, flags, k, disks, bound):
 def rolling_part(x):
     """The rolling 8-state ``(c1, c2, phi, theta, psi, dphi, dtheta, dpsi)`` of a 10-state."""
     return x[0], x[1], x[2], x[3], x[4], x[7], x[8], x[9]
-
-
-@inline_kernel
-def centre_velocity(x, m, g, r):
-    """``(dc1, dc2)``: the horizontal velocity (m/s) of the centre of a disk rolling in the 8-state ``x``, from the
-    rolling constraint (the model's kinematic equations: the compiler drops the rest of the derivative)."""
-    slope = kernels.state_derivative(x, 0.0, 0.0, m, g, r)
-    return slope[0], slope[1]
 
 
 @inline_kernel
