@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.goto as task
 
-TASK_SOURCE = "b9e62715ac4eb562b64e44d7ac240aa979bf4dca6b7ea9be4d94d09bcf66fe77"
+TASK_SOURCE = "0995e2e6d5ae86b8f45f7b6fcd0f5c181742c39746b7e30d8f63efcbb53f5526"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 7
 """The first row of the observation in an info block, after the reward terms."""

@@ -184,26 +184,26 @@ def to_target(x, goal):
 
 
 @inline_kernel
-def target(x, goal):
-    """``(d, sin beta, cos beta)``: the centre's horizontal distance to the target (m) and the sine and cosine of
-    the target's bearing from the rolling direction (both 0 at the target)."""
-    distance, u1, u2 = to_target(x, goal)
+def bearing(x, u1, u2):
+    """``(sin beta, cos beta)``: the sine and cosine of the bearing of the unit vector ``(u1, u2)`` (towards the
+    target, :func:`to_target`) from the rolling direction (both 0 where ``u`` is)."""
     sin_psi, cos_psi = sincos(x[PSI])
     # Rolling direction f = (sin psi, -cos psi): cos beta = f . u, sin beta = f x u.
-    return distance, sin_psi * u2 + cos_psi * u1, sin_psi * u1 - cos_psi * u2
+    return sin_psi * u2 + cos_psi * u1, sin_psi * u1 - cos_psi * u2
 
 
 @inline_kernel
 def observe(x, goal, settings):
-    distance, sin_bearing, cos_bearing = target(x, goal)
+    distance, u1, u2 = to_target(x, goal)
+    sin_bearing, cos_bearing = bearing(x, u1, u2)
     return (distance, sin_bearing, cos_bearing, x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])
 
 
 @inline_kernel
 def reward_terms(x, velocity, code, effort, goal, settings):
-    distance, sin_bearing, cos_bearing = target(x, goal)
+    distance, u1, u2 = to_target(x, goal)
+    sin_bearing, cos_bearing = bearing(x, u1, u2)
     theta = x[THETA]
-    _, u1, u2 = to_target(x, goal)
     progress = min(max((velocity[0] * u1 + velocity[1] * u2) / settings[CRUISE_SPEED], -1.0), 1.0)
     # The miss distance if the disk rolled straight on: d |sin beta| ahead, d behind.
     miss = distance * abs(sin_bearing) if cos_bearing > 0.0 else distance
@@ -219,5 +219,5 @@ def reward_terms(x, velocity, code, effort, goal, settings):
 def termination(x, goal, settings):
     if abs(x[THETA]) > settings[FALL_LEAN]:
         return FALLEN
-    distance = target(x, goal)[0]
+    distance = to_target(x, goal)[0]
     return REACHED if distance <= settings[REACH_RADIUS] else RUNNING
