@@ -153,19 +153,25 @@ def _trig_lines(used: set, names: dict | None = None) -> list[str]:
     return lines
 
 
-def _function_source(name: str, equations: Equations) -> str:
-    """One function of the model: unpacks the state, evaluates the outputs, returns them as a tuple."""
+def _function_source(name: str, equations: Equations, given_angles: bool = False) -> str:
+    """One function of the model: unpacks the state, evaluates the outputs, returns them as a tuple. With
+    ``given_angles``, ``{name}_from`` takes the state's sines and cosines (those of :func:`_angles_source`'s
+    ``angles(x)``) as an argument, ``trig``, instead of computing them."""
     replacements, reduced = equations.reduced
     used = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in replacements))
     argument = "x" if len(equations.state) == 8 else "y"
+    trig = [f"{', '.join(str(t) for pair in _ANGLES.values() for t in pair)} = trig"] if given_angles else []
     body = [
         f"{', '.join(map(str, equations.state))} = {argument}",
-        *_trig_lines(used),
+        *(trig or _trig_lines(used)),
         *(f"{symbol} = {_PRINTER.doprint(expr)}" for symbol, expr in replacements),
         f"return ({', '.join(_PRINTER.doprint(expr) for expr in reduced)},)",
     ]
-    signature = _signature(name, argument)
-    lines = ["@inline_kernel", signature, f'    """{equations.doc}"""', *(f"    {line}" for line in body)]
+    doc = equations.doc
+    if given_angles:
+        doc = doc[:-1] + ";\n    ``trig`` is ``angles(x)``, which the caller has."
+    signature = _signature(name + "_from" if given_angles else name, argument, ("trig",) if given_angles else ())
+    lines = ["@inline_kernel", signature, f'    """{doc}"""', *(f"    {line}" for line in body)]
     return "\n".join(lines) + "\n"
 
 
@@ -371,26 +377,33 @@ def _angles_source() -> str:
     return "\n".join(lines) + "\n"
 
 
-def _from_angles_source(tableau: Tableau) -> str:
-    """The full model's step of a fixed-step ``tableau``, as its step ``_from`` its state's :func:`_angles_source`."""
-    name, arguments = f"state_{tableau.name}_step", "dt, tau_spin, tau_steer, m, g, r"
-    doc = f"One step of dt seconds of {tableau.doc} on the {_MODEL_NAMES['state']} model; returns the new state."
-    lines = ["@inline_kernel", _signature(name, "x", ("dt",)), f'    """{doc}"""']
+def _from_angles_source(name: str, doc: str, before: tuple[str, ...] = ()) -> str:
+    """The full model's function ``name`` of x, as its function ``_from`` its state's :func:`_angles_source`."""
+    arguments = ", ".join([*before, "tau_spin", "tau_steer", "m", "g", "r"])
+    lines = ["@inline_kernel", _signature(name, "x", before), f'    """{doc}"""']
     return "\n".join([*lines, f"    return {name}_from(x, angles(x), {arguments})"]) + "\n"
 
 
 def generate_kernels() -> str:
-    """Source of ``_generated/kernels.py``: the model's functions, then each integrator's step of each model (the
-    full model's fixed steps as steps ``_from`` the state's :func:`_angles_source`, which the vector env keeps)."""
+    """Source of ``_generated/kernels.py``: the model's functions, then each integrator's step of each model. The
+    full model's derivative and fixed steps are functions ``_from`` the state's :func:`_angles_source`, which the
+    vector env keeps, and a function of x alone that computes them."""
     generated = equations()
-    functions = [_function_source(name, eqs) for name, eqs in generated.items()]
+    functions = []
+    for name, eqs in generated.items():
+        from_angles = name == "state_derivative"
+        functions.append(_function_source(name, eqs, from_angles))
+        if from_angles:
+            functions.append(_from_angles_source(name, eqs.doc))
     functions.append(_angles_source())
     for model in ("state", "lean"):
         for tableau in TABLEAUS:
             from_angles = model == "state" and not tableau.error
             functions.append(_step_source(model, generated[f"{model}_derivative"], tableau, from_angles))
             if from_angles:
-                functions.append(_from_angles_source(tableau))
+                model_name = _MODEL_NAMES["state"]
+                doc = f"One step of dt seconds of {tableau.doc} on the {model_name} model; returns the new state."
+                functions.append(_from_angles_source(f"state_{tableau.name}_step", doc, ("dt",)))
     header = _HEADER.format(title="The rolling-disk model for one disk.", source="``rolling_disk_env/derivation.py``")
     return header + "\n" + _MODEL_IMPORTS + "\n\n" + "\n\n".join(functions)
 
@@ -505,10 +518,10 @@ FINISH_TEMPLATE = """\
         code = task.termination(x, goal, settings) if code == RUNNING else code
         steps[k, i] += 1
 {report}{terms_loop}
-        terms = task.reward_terms(x, {velocity}, code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, {velocity}, code, lanes[EFFORT, k, i], goal, settings)
 {terms}
         info[REWARD, k, i] = {reward}
-        observation = task.observe(x, goal, settings)
+        observation = task.observe(x, trig, goal, settings)
 {observe}{tracking}{sliding_report}
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
@@ -522,6 +535,7 @@ TERMS_LOOP = """
     for i in range(lanes.shape[2]):
         m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
         x = {state}
+        trig = {angles}
         goal = {goal}
         code = np.int64(info[STATUS, k, i])"""
 """Between the contact forces and termination of :data:`FINISH_TEMPLATE` and the rest, in the rolling steps of a
@@ -542,6 +556,7 @@ HANDOVER = {
 """,
     "contact": """
 {store_state}
+        trig = kernels.angles(x)
 """,
 }
 """Between the integration and :data:`FINISH_TEMPLATE`: the rolling integrators store each disk's state and code
@@ -662,7 +677,7 @@ def reset_share(k, resets, batch, setup, out):
         info[REWARD, k, i] = 0.0
         for j in range(TERMS, OBSERVATION):
             info[j, k, i] = 0.0
-        observation = task.observe(x, goal, options)
+        observation = task.observe(x, trig, goal, options)
         for j in range(len(observation)):
             info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
         flags[TERMINATED, k, i] = False
@@ -775,7 +790,7 @@ def generate_steps(task) -> str:
     rolling = {
         "{contact}": "engine.contact(x, tau_spin, tau_steer, m, g, r)",
         "{contact_status}": "engine.contact_status(contact[3], contact[4], friction)",
-        "{velocity}": "engine.centre_velocity(x, m, g, r)",
+        "{velocity}": "engine.centre_velocity(x, trig, m, g, r)",
         "{sliding_report}": "",
     }
     hybrid = {  # the "sliding" and "coulomb" contacts: the 10-state is `state`, its 8 rolling components `x`

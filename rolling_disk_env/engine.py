@@ -215,10 +215,11 @@ def contact(x, tau_spin, tau_steer, m, g, r):
 
 
 @inline_kernel
-def centre_velocity(x, m, g, r):
-    """``(dc1, dc2)``: the horizontal velocity (m/s) of the centre of a disk rolling in the 8-state ``x``, from the
-    rolling constraint (the model's kinematic equations: the compiler drops the rest of the derivative)."""
-    slope = kernels.state_derivative(x, 0.0, 0.0, m, g, r)
+def centre_velocity(x, trig, m, g, r):
+    """``(dc1, dc2)``: the horizontal velocity (m/s) of the centre of a disk rolling in the 8-state ``x``, whose
+    angles' sines and cosines are ``trig`` (``kernels.angles(x)``), from the rolling constraint (the model's kinematic
+    equations: the compiler drops the rest of the derivative)."""
+    slope = kernels.state_derivative_from(x, trig, 0.0, 0.0, m, g, r)
     return slope[0], slope[1]
 
 
@@ -344,7 +345,7 @@ def rolling_part(x):
 @inline_kernel
 def rolling_start(y, m, g, r):
     """The 10-state of a rolling 8-state ``y``: the centre's velocity from the rolling constraint, the slip zero."""
-    dc1, dc2 = centre_velocity(y, m, g, r)
+    dc1, dc2 = centre_velocity(y, kernels.angles(y), m, g, r)
     return y[0], y[1], y[2], y[3], y[4], dc1, dc2, y[5], y[6], y[7]
 
 

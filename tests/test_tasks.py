@@ -71,6 +71,39 @@ def test_circle_observation_reads_the_sampled_offsets():
     assert observation[3] == pytest.approx(0.02 - goal["theta"])
 
 
+def _heading(task: str, state: np.ndarray, goal: dict) -> tuple[float, float]:
+    """The sine and cosine observed by ``task`` from ``state``, by plane geometry: circle's heading error, the angle
+    from the circle's counter-clockwise tangent to the rolling direction (sin psi, -cos psi); goto's bearing, the
+    angle from the rolling direction to the target."""
+    c1, c2, psi = state[0], state[1], state[4]
+    if task == "circle":
+        around = math.atan2(c2 - goal["cy"], c1 - goal["cx"])  # the tangent points at around + pi/2
+        delta = (psi - math.pi / 2) - (around + math.pi / 2)
+        return math.sin(delta), math.cos(delta)
+    beta = math.atan2(goal["y"] - c2, goal["x"] - c1) - (psi - math.pi / 2)
+    return math.sin(beta), math.cos(beta)
+
+
+@pytest.mark.parametrize("task", ["circle", "goto"])
+def test_the_observed_heading_follows_the_state_step_by_step(task):
+    """The fused step hands the task the sines and cosines of the new state's angles it keeps for the next step; a
+    stale or swapped pair (theta's for psi's, or the last step's) would show here: psi moves by some 1e-3 rad a
+    step under the random steer torques."""
+    env = rd.RollingDiskEnv(task=task)
+    observation, info = env.reset(seed=5)
+    rng = np.random.default_rng(5)
+    moved = 0.0
+    for _ in range(200):
+        expected = _heading(task, info["state"], env.goal)
+        np.testing.assert_allclose(observation[1:3], expected, atol=2e-6)
+        last_psi = info["state"][4]
+        observation, _, terminated, truncated, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+        moved = max(moved, abs(info["state"][4] - last_psi))
+        if terminated or truncated:
+            observation, info = env.reset()
+    assert moved > 1e-3
+
+
 @pytest.mark.parametrize("task", ["upright", "circle"])
 def test_a_passive_disk_fails_the_task(task):
     # Close to none of 64 episodes: a passive circle episode can trace a circle near the target by chance.

@@ -17,11 +17,11 @@ from rolling_disk_env.trig import sincos
 
 
 @inline_kernel
-def state_derivative(x, tau_spin, tau_steer, m, g, r):
-    """dx/dt of the full model at x (8 floats): the paper's state equations with the input torques."""
+def state_derivative_from(x, trig, tau_spin, tau_steer, m, g, r):
+    """dx/dt of the full model at x (8 floats): the paper's state equations with the input torques;
+    ``trig`` is ``angles(x)``, which the caller has."""
     c1, c2, phi, theta, psi, dphi, dtheta, dpsi = x
-    sin_theta, cos_theta = sincos(theta)
-    sin_psi, cos_psi = sincos(psi)
+    sin_theta, cos_theta, sin_psi, cos_psi = trig
     x0 = cos_theta*dtheta
     x1 = dpsi*sin_theta
     x2 = 1/(m*r*r)
@@ -29,6 +29,12 @@ def state_derivative(x, tau_spin, tau_steer, m, g, r):
     x4 = cos_theta*dpsi
     x5 = dphi/cos_theta
     return (r*(cos_psi*x0 + dphi*sin_psi - sin_psi*x1), r*(-cos_psi*dphi + cos_psi*x1 + sin_psi*x0), dphi, dtheta, dpsi, (1/3)*dtheta*(6*sin_theta*x5 + 5*x4) + (10/3)*sin_theta*tau_steer*x2 + (1/3)*tau_spin*x3, cos_theta*dpsi*dpsi*sin_theta - 6/5*dphi*x4 + (4/5)*g*sin_theta/r, 2*dtheta*x5 + 2*tau_steer*x3,)
+
+
+@inline_kernel
+def state_derivative(x, tau_spin, tau_steer, m, g, r):
+    """dx/dt of the full model at x (8 floats): the paper's state equations with the input torques."""
+    return state_derivative_from(x, angles(x), tau_spin, tau_steer, m, g, r)
 
 
 @inline_kernel

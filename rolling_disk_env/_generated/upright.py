@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.upright as task
 
-TASK_SOURCE = "f169c23b5141554d89bce67ba2076d7cd9446dae52b8ae511afe44b9f642b093"
+TASK_SOURCE = "ba6072f60cdd1a1f39faae4d84d4d1ecfda094a5cab9e15ed9803392263275e4"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
@@ -106,7 +106,7 @@ def reset_share(k, resets, batch, setup, out):
         info[REWARD, k, i] = 0.0
         for j in range(TERMS, OBSERVATION):
             info[j, k, i] = 0.0
-        observation = task.observe(x, goal, options)
+        observation = task.observe(x, trig, goal, options)
         for j in range(len(observation)):
             info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
         flags[TERMINATED, k, i] = False
@@ -205,12 +205,13 @@ def step_euler_share(k, actions, batch, setup, out, resets):
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
+        trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, goal, settings)
+        observation = task.observe(x, trig, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -336,12 +337,13 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
+        trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, goal, settings)
+        observation = task.observe(x, trig, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -467,12 +469,13 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
+        trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, goal, settings)
+        observation = task.observe(x, trig, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -577,12 +580,13 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
         )
+        trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = np.int64(info[STATUS, k, i])
-        terms = task.reward_terms(x, engine.centre_velocity(x, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, goal, settings)
+        observation = task.observe(x, trig, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -653,6 +657,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        trig = kernels.angles(x)
         # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
         # the task's termination, reward terms, success and observation, into its column of info and flags.
         contact = engine.hybrid_contact(state, torques, friction, coulomb, disk)
@@ -667,10 +672,10 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i], info[STATUS, k, i] = contact[4], code
-        terms = task.reward_terms(x, (state[5], state[6]), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, (state[5], state[6]), code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, goal, settings)
+        observation = task.observe(x, trig, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])

@@ -8,8 +8,10 @@ episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :at
 * ``start(drawn, disk, settings) -> (goal, x)``: the episode's goal and initial state from the values ``drawn``
   uniformly in the task's goal ranges, then its initial-state ranges (an array, in their keys' order), for the disk
   ``(m, g, r)``;
-* ``observe(x, goal, settings)``: the observation (unclipped: the engine clips it to the bounds);
-* ``reward_terms(x, velocity, code, effort, goal, settings)``: each named term, in [-1, 1], in the order of
+* ``observe(x, trig, goal, settings)``: the observation (unclipped: the engine clips it to the bounds); ``trig`` is
+  ``(sin theta, cos theta, sin psi, cos psi)`` of ``x`` (positions :data:`SIN_THETA` to :data:`COS_PSI`), which the
+  engine keeps from the step (``kernels.angles``);
+* ``reward_terms(x, trig, velocity, code, effort, goal, settings)``: each named term, in [-1, 1], in the order of
   :attr:`Task.default_reward_weights`; ``velocity`` is the centre's horizontal velocity ``(dc1, dc2)`` (m/s: from the
   rolling constraint, or the sliding disk's own under the ``"sliding"`` and ``"coulomb"`` contacts), ``code`` the
   step's termination code (:class:`rolling_disk_env.Termination`: RUNNING, the task's own, or the engine's,
@@ -45,6 +47,8 @@ from rolling_disk_env.jit import inline_kernel
 
 C1, C2, PHI, THETA, PSI, DPHI, DTHETA, DPSI = range(8)
 """Positions in a state ``x`` (the paper's order)."""
+SIN_THETA, COS_THETA, SIN_PSI, COS_PSI = range(4)
+"""Positions in ``trig``, the sines and cosines of a state's angles."""
 MASS, GRAVITY, RADIUS = range(3)
 """Positions in a disk ``(m, g, r)``."""
 

@@ -16,8 +16,21 @@ from rolling_disk_env import engine
 from rolling_disk_env.dynamics import DiskParams, is_number, number_pair, steady_circle
 from rolling_disk_env.engine import FALLEN, RUNNING
 from rolling_disk_env.jit import inline_kernel, kernel
-from rolling_disk_env.tasks.base import C1, C2, DPHI, DPSI, DTHETA, GRAVITY, PSI, RADIUS, THETA, TRACK, Task, penalty
-from rolling_disk_env.trig import sincos
+from rolling_disk_env.tasks.base import (
+    C1,
+    C2,
+    COS_PSI,
+    DPHI,
+    DPSI,
+    DTHETA,
+    GRAVITY,
+    RADIUS,
+    SIN_PSI,
+    THETA,
+    TRACK,
+    Task,
+    penalty,
+)
 
 # Positions in this task's arrays.
 TARGET_SPEED, FALL_LEAN, CENTRE_X, CENTRE_Y = range(4)  # settings
@@ -160,10 +173,10 @@ def radial_error(x, goal):
 
 
 @inline_kernel
-def observe(x, goal, settings):
+def observe(x, trig, goal, settings):
     dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
     distance = math.sqrt(dx * dx + dy * dy)
-    sin_psi, cos_psi = sincos(x[PSI])
+    sin_psi, cos_psi = trig[SIN_PSI], trig[COS_PSI]
     # delta = psi - angle - pi, with (cos angle, sin angle) = (dx, dy) / distance.
     scale = 1.0 / (distance + 1e-9)
     return (
@@ -179,7 +192,7 @@ def observe(x, goal, settings):
 
 
 @inline_kernel
-def reward_terms(x, velocity, code, effort, goal, settings):
+def reward_terms(x, trig, velocity, code, effort, goal, settings):
     alive = 1.0
     radial = penalty(radial_error(x, goal))
     speed = penalty((x[DPHI] - goal[TARGET_DPHI]) / goal[TARGET_DPHI])

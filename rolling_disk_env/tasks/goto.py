@@ -20,8 +20,20 @@ from typing import ClassVar
 from rolling_disk_env.dynamics import is_number, number_pair
 from rolling_disk_env.engine import FALLEN, LIFTED_OFF, REACHED, RUNNING
 from rolling_disk_env.jit import inline_kernel, kernel
-from rolling_disk_env.tasks.base import C1, C2, DPHI, DPSI, DTHETA, PSI, RADIUS, REACH, THETA, Task, penalty
-from rolling_disk_env.trig import sincos
+from rolling_disk_env.tasks.base import (
+    C1,
+    C2,
+    COS_PSI,
+    DPHI,
+    DPSI,
+    DTHETA,
+    RADIUS,
+    REACH,
+    SIN_PSI,
+    THETA,
+    Task,
+    penalty,
+)
 
 # Positions in this task's arrays.
 CRUISE_SPEED, FALL_LEAN, REACH_RADIUS = range(3)  # settings
@@ -184,25 +196,26 @@ def to_target(x, goal):
 
 
 @inline_kernel
-def bearing(x, u1, u2):
+def bearing(trig, u1, u2):
     """``(sin beta, cos beta)``: the sine and cosine of the bearing of the unit vector ``(u1, u2)`` (towards the
-    target, :func:`to_target`) from the rolling direction (both 0 where ``u`` is)."""
-    sin_psi, cos_psi = sincos(x[PSI])
+    target, :func:`to_target`) from the rolling direction of a disk whose angles' sines and cosines are ``trig`` (both
+    0 where ``u`` is)."""
+    sin_psi, cos_psi = trig[SIN_PSI], trig[COS_PSI]
     # Rolling direction f = (sin psi, -cos psi): cos beta = f . u, sin beta = f x u.
     return sin_psi * u2 + cos_psi * u1, sin_psi * u1 - cos_psi * u2
 
 
 @inline_kernel
-def observe(x, goal, settings):
+def observe(x, trig, goal, settings):
     distance, u1, u2 = to_target(x, goal)
-    sin_bearing, cos_bearing = bearing(x, u1, u2)
+    sin_bearing, cos_bearing = bearing(trig, u1, u2)
     return (distance, sin_bearing, cos_bearing, x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])
 
 
 @inline_kernel
-def reward_terms(x, velocity, code, effort, goal, settings):
+def reward_terms(x, trig, velocity, code, effort, goal, settings):
     distance, u1, u2 = to_target(x, goal)
-    sin_bearing, cos_bearing = bearing(x, u1, u2)
+    sin_bearing, cos_bearing = bearing(trig, u1, u2)
     theta = x[THETA]
     progress = min(max((velocity[0] * u1 + velocity[1] * u2) / settings[CRUISE_SPEED], -1.0), 1.0)
     # The miss distance if the disk rolled straight on: d |sin beta| ahead, d behind.

@@ -90,12 +90,12 @@ def start(drawn, disk, settings):
 
 
 @inline_kernel
-def observe(x, goal, settings):
+def observe(x, trig, goal, settings):
     return (x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])
 
 
 @inline_kernel
-def reward_terms(x, velocity, code, effort, goal, settings):
+def reward_terms(x, trig, velocity, code, effort, goal, settings):
     alive = 1.0
     lean = penalty(x[THETA] / settings[FALL_LEAN])
     speed = penalty((x[DPHI] - goal[TARGET_DPHI]) / goal[TARGET_DPHI])
