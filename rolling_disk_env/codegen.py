@@ -642,6 +642,7 @@ def reset_share(k, resets, batch, setup, out):
     {unpack}
     options = {settings}
     first = k * lanes.shape[2]
+    values = np.empty(ranges.shape[0])  # a disk's drawn values, the task's start reads them
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
         if not mask[d]:
@@ -656,7 +657,6 @@ def reset_share(k, resets, batch, setup, out):
             if disk_ranges[j, 2]:
                 lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
-        values = np.empty(ranges.shape[0])
         for j in range(ranges.shape[0]):
             values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
         disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])

@@ -300,18 +300,21 @@ def steady_circle(radius, speed, g, r):
     if not dpsi * dpsi < 4.0 * g / r:
         return math.nan, math.nan, math.nan
     a, b, c = 2.0 * g / (3.0 * r * dpsi), dpsi / 6.0, speed / r
-    # excess(theta) = a tan(theta) - b sin(theta) - c is increasing and convex on [0, pi/2), so Newton's method
-    # converges monotonically from any point right of the root, such as atan((b + c) / a), where excess >= 0.
-    theta = math.atan((b + c) / a)
+    # The condition a tan(theta) - b sin(theta) = c in t = tan(theta): excess(t) = a t - b t / sqrt(1 + t^2) - c is
+    # increasing (a > b while dpsi^2 < 4 g / r) and convex for t >= 0, so Newton's method converges monotonically
+    # from any point right of the root, such as (b + c) / a, where excess >= 0. Its steps take a square root, not
+    # the three libm calls of a step in theta (the reset of every circle episode solves it).
+    t = (b + c) / a
     for _ in range(50):
-        cos_theta = math.cos(theta)
-        step = (a * math.tan(theta) - b * math.sin(theta) - c) / (a / (cos_theta * cos_theta) - b * cos_theta)
-        theta -= step
-        if abs(step) < 1e-15:
+        secant = math.sqrt(1.0 + t * t)
+        step = (a * t - b * t / secant - c) / (a - b / (secant * secant * secant))
+        t -= step
+        if abs(step) < 1e-15 * (1.0 + t * t):  # theta moved by less than 1e-15 rad
             break
+    theta = math.atan(t)
     if not theta < LEAN_LIMIT:
         return math.nan, math.nan, math.nan
-    return theta, speed / r + dpsi * math.sin(theta), dpsi
+    return theta, speed / r + dpsi * (t / math.sqrt(1.0 + t * t)), dpsi
 
 
 @inline_kernel
