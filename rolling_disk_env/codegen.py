@@ -61,6 +61,8 @@ _SIN_THETA, _COS_THETA, _SIN_PSI, _COS_PSI = sp.symbols("sin_theta cos_theta sin
 _ANGLES = {d.theta: (_SIN_THETA, _COS_THETA), d.psi: (_SIN_PSI, _COS_PSI)}
 """The sine and cosine of theta and psi, computed together once per evaluation (:func:`rolling_disk_env.trig.sincos`,
 which vectorizes)."""
+_TRIG = (_SIN_THETA, _COS_THETA, _SIN_PSI, _COS_PSI)
+"""Their order in ``angles(x)`` and in the ``trig`` the functions ``_from`` take."""
 
 
 def _in_sin_cos(expr: sp.Expr) -> sp.Expr:
@@ -160,7 +162,7 @@ def _function_source(name: str, equations: Equations, given_angles: bool = False
     replacements, reduced = equations.reduced
     used = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in replacements))
     argument = "x" if len(equations.state) == 8 else "y"
-    trig = [f"{', '.join(str(t) for pair in _ANGLES.values() for t in pair)} = trig"] if given_angles else []
+    trig = [f"{', '.join(map(str, _TRIG))} = trig"] if given_angles else []
     body = [
         f"{', '.join(map(str, equations.state))} = {argument}",
         *(trig or _trig_lines(used)),
@@ -315,10 +317,10 @@ def _step_source(model: str, equations: Equations, tableau: Tableau, given_angle
                         body.append(f"{names[c]} = {c} + dt*({offset})")
         else:
             body.append("# stage 1: at x")
-        names |= {t: sp.Symbol(f"{t}_{stage + 1}") for pair in _ANGLES.values() for t in pair}
+        names |= {t: sp.Symbol(f"{t}_{stage + 1}") for t in _TRIG}
         names |= {symbol: sp.Symbol(f"{symbol}_{stage + 1}") for symbol, _ in required}
         if given_angles and not stage:
-            body.append(f"{', '.join(str(names[t]) for pair in _ANGLES.values() for t in pair)} = trig")
+            body.append(f"{', '.join(str(names[t]) for t in _TRIG)} = trig")
         else:
             body += _trig_lines(read, names)
         body += [f"{names[symbol]} = {_PRINTER.doprint(expr.xreplace(names))}" for symbol, expr in required]
@@ -364,7 +366,7 @@ from rolling_disk_env.trig import sincos
 
 def _angles_source() -> str:
     """``angles(x)``: the sines and cosines of the full model's angles, in the order the steps ``_from`` take them."""
-    state, names = list(d.state), ", ".join(str(t) for pair in _ANGLES.values() for t in pair)
+    state, names = list(d.state), ", ".join(map(str, _TRIG))
     doc = (
         f"``({names})`` of the full model's state x, what the first stage of a step\n"
         "    from x evaluates. The vector env keeps them from the end of a step, which computes them for the contact\n"
@@ -642,7 +644,6 @@ def reset_share(k, resets, batch, setup, out):
     {unpack}
     options = {settings}
     first = k * lanes.shape[2]
-    values = np.empty(ranges.shape[0])  # a disk's drawn values, the task's start reads them
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
         if not mask[d]:
@@ -657,6 +658,7 @@ def reset_share(k, resets, batch, setup, out):
             if disk_ranges[j, 2]:
                 lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
+        values = np.empty(ranges.shape[0])
         for j in range(ranges.shape[0]):
             values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
         disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])

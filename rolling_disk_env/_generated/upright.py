@@ -62,7 +62,6 @@ def reset_share(k, resets, batch, setup, out):
     observations, info, flags = out
     options = (settings[0], settings[1])
     first = k * lanes.shape[2]
-    values = np.empty(ranges.shape[0])  # a disk's drawn values, the task's start reads them
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
         if not mask[d]:
@@ -77,6 +76,7 @@ def reset_share(k, resets, batch, setup, out):
             if disk_ranges[j, 2]:
                 lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
+        values = np.empty(ranges.shape[0])
         for j in range(ranges.shape[0]):
             values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
         disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])
