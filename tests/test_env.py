@@ -346,7 +346,7 @@ def test_tracking_success_holds_past_the_first_rows_of_sums_in_an_endless_episod
 
     env = gym.make(rd.TASK_IDS["circle"], max_episode_steps=None).unwrapped
     observation, _ = env.reset(seed=2)
-    first_rows = env._batch.error_sums.shape[1]
+    first_rows = env._batch.tracked_steps
     centre, radius = np.array([env.goal["cx"], env.goal["cy"]]), env.goal["radius"]
     controller = CircleLQR(task="circle")
     errors, successes = [], []
@@ -355,7 +355,7 @@ def test_tracking_success_holds_past_the_first_rows_of_sums_in_an_endless_episod
         assert not terminated
         errors.append(abs(np.hypot(*(info["state"][:2] - centre)) - radius))
         successes.append(info["is_success"])
-    assert env._batch.error_sums.shape[1] >= 2 * first_rows
+    assert env._batch.tracked_steps >= 2 * first_rows
     means = [np.mean(errors[(step + 1) // 2 : step + 1]) for step in range(len(errors))]
     assert successes[first_rows:] == [mean <= 0.25 for mean in means[first_rows:]]
     assert any(successes[first_rows:])  # the controller holds the circle

@@ -124,7 +124,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
+    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
@@ -256,7 +256,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
+    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
@@ -388,7 +388,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
+    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
@@ -520,7 +520,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
+    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
@@ -631,7 +631,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations`` and ``error_sums``). The loop runs over a whole share, padding included
+    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""

@@ -312,13 +312,14 @@ class DiskBatch:
         self.lanes[[engine.ANGLES + 1, engine.ANGLES + 3]] = 1.0  # kernels.angles of the zero state: the padding's
         self.goals = np.zeros((len(task.goal_names), width))
         self.steps = np.zeros(width, dtype=np.int64)
-        # Tracking errors summed over each episode, a row per disk, for the success rule TRACK. An episode truncated
-        # at max_episode_steps may be stepped once more before its reset (next-step autoreset): 2 entries beyond it.
-        # Without truncation, the rows grow as episodes get longer.
+        # Tracking errors summed over each episode, for the success rule TRACK (engine.track). An episode truncated
+        # at max_episode_steps may be stepped once more before its reset (next-step autoreset): sums up to step
+        # max_episode_steps + 1. Without truncation, the history grows as episodes get longer.
         tracked = task.success == TRACK
         self._growing = tracked and max_episode_steps is None
-        self._unchecked = 0  # steps before the rows of error_sums must be looked at again (_grow_tracking)
-        self.error_sums = np.zeros((width, (max_episode_steps or 1024) + 2 if tracked else 1))
+        self._unchecked = 0  # steps before the history must be looked at again (_grow_tracking)
+        history = -(-((max_episode_steps or 1024) + 2) // engine.SUM_BLOCK) if tracked else -engine.HISTORY
+        self.error_sums = np.zeros((self.threads, engine.HISTORY + history, self.share, engine.SUM_BLOCK))
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, config.state_size), np.nan)
         self.rows = engine.TERMS + self.terms + self.observation_size + (0 if self.contact_rows is None else 5)
@@ -371,7 +372,7 @@ class DiskBatch:
             self.lanes.reshape(-1, *split),
             self.goals.reshape(-1, *split),
             self.steps.reshape(split),
-            self.error_sums.reshape(*split, -1),
+            self.error_sums,
         )
 
     def reset(
@@ -434,19 +435,25 @@ class DiskBatch:
             self._start_contact(resetting, out, self.no_state)
         return bad
 
+    @property
+    def tracked_steps(self) -> int:
+        """The steps whose tracking-error sums the history of :attr:`error_sums` holds."""
+        return (self.error_sums.shape[1] - engine.HISTORY) * engine.SUM_BLOCK
+
     def _grow_tracking(self) -> None:
-        """Doubles the error sums' rows before a step could write past them (episodes without truncation). A step
+        """Doubles the error sums' history before a step could write past it (episodes without truncation). A step
         adds at most one to each step count, so after a look at the longest episode the next is due when it could
-        have reached the end of the rows: the look (a max over the disks) took several microseconds of a single
+        have reached the end of the history: the look (a max over the disks) took several microseconds of a single
         env's step."""
         self._unchecked -= 1
         if self._unchecked > 0:
             return
         longest = int(self.steps[: self.num_envs].max())
-        if longest + 1 >= self.error_sums.shape[1]:
-            self.error_sums = np.concatenate([self.error_sums, np.zeros_like(self.error_sums)], axis=1)
+        if longest + 1 >= self.tracked_steps:
+            history = self.error_sums[:, engine.HISTORY :]
+            self.error_sums = np.concatenate([self.error_sums, np.zeros_like(history)], axis=1)
             self._bundle()
-        self._unchecked = self.error_sums.shape[1] - 1 - longest
+        self._unchecked = self.tracked_steps - 1 - longest
 
     def _step(self, threaded: bool, arguments: tuple):
         """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
