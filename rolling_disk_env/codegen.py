@@ -784,11 +784,7 @@ def generate_steps(task) -> str:
             "{success}": success,
         },
     )
-    track = (
-        "\n    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])"
-        if rule == "track"
-        else ""
-    )
+    track = "\n    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])" if rule == "track" else ""
     rolling = {
         "{contact}": "engine.contact(x, tau_spin, tau_steer, m, g, r)",
         "{contact_status}": "engine.contact_status(contact[3], contact[4], friction)",

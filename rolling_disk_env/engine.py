@@ -96,12 +96,14 @@ class BatchArrays(NamedTuple):
             (success rule TRACK, :func:`track`): ``[k, b, i, j]`` for disk i of share k, entry j of block b, the
             blocks WRITING and READING then the history (the sums of steps ``SUM_BLOCK n`` to ``SUM_BLOCK n + 7`` in
             block ``HISTORY + n``); no blocks for the other rules. Unlike the other arrays, already split into shares.
+        listed: (shares, share columns) int64, where :func:`track` lists disks (no columns for the other rules).
     """
 
     lanes: np.ndarray
     goals: np.ndarray
     steps: np.ndarray
     error_sums: np.ndarray
+    listed: np.ndarray
 
 
 class SetupArrays(NamedTuple):
@@ -325,23 +327,24 @@ def steady_circle(radius, speed, g, r):
 
 
 @inline_kernel
-def track(error_sums, lanes, steps, flags, k, disks, bound):
-    """The success rule TRACK for the ``disks`` disks of share k: keeps each one's sum of the tracking error over the
-    episode, S[step] (row TRACKING_SUM, which the step adds this step's error to), in ``error_sums``
-    (:data:`SUM_BLOCK`), and keeps its flag SUCCESS, set where the disk is still running, where the mean error over
-    the last half of the episode, ``(S[step] - S[step // 2]) / (step - step // 2)``, is within ``bound``.
+def track(batch, flags, k, disks, bound):
+    """The success rule TRACK for the ``disks`` disks of share k of ``batch`` (:class:`BatchArrays`): keeps each
+    one's sum of the tracking error over the episode, S[step] (row TRACKING_SUM, which the step adds this step's error
+    to), in ``error_sums`` (:data:`SUM_BLOCK`), and keeps its flag SUCCESS, set where the disk is still running, where
+    the mean error over the last half of the episode, ``(S[step] - S[step // 2]) / (step - step // 2)``, is within
+    ``bound``.
 
     A disk's sums go into its block WRITING, each block of 8 copied to the history once full; every other step,
     S[step // 2] moves on into row HALF_SUM, from block WRITING while it is still there (the first 16 steps), then
     from block READING, which takes the next 8 sums from the history the step before they come due. The blocks
     WRITING and READING of consecutive disks are consecutive in memory, and the first loop has no branch (the disks'
     episodes are at different steps: a branch on the step is mispredicted half the time); the copies, of a disk once
-    in 8 steps, run in a loop of their own over the disks the first lists. (With a row of sums per disk, an entry a
-    step, a step touched a line of each disk's row, 4 KB from the next disk's, under a branch taken every other
-    step: at N = 16384, one thread, AVX2 code, circle's step took 2% to 4% longer, measured in turns.) The sums of a
-    disk that has just ended are kept too, never read."""
-    due = np.empty(disks, np.int64)  # the disks whose block WRITING is full
-    count = 0
+    in 8 steps, run in a loop of their own over the disks the first lists (in ``listed``). (With a row of sums per
+    disk, an entry a step, a step touched a line of each disk's row, 4 KB from the next disk's, under a branch taken
+    every other step: at N = 16384, one thread, AVX2 code, circle's step took 2% to 4% longer, measured in turns.)
+    The sums of a disk that has just ended are kept too, never read."""
+    lanes, _, steps, error_sums, listed = batch
+    count = 0  # disks listed: those whose block WRITING is full
     for i in range(disks):
         step, half = steps[k, i], steps[k, i] // 2
         total = error_sums[k, WRITING, i, step % SUM_BLOCK] = lanes[TRACKING_SUM, k, i]
@@ -351,10 +354,10 @@ def track(error_sums, lanes, steps, flags, k, disks, bound):
         moved = written if half < SUM_BLOCK else read
         half_sum = lanes[HALF_SUM, k, i] = moved if step % 2 == 0 else kept
         flags[SUCCESS, k, i] &= (total - half_sum) / max(1, step - half) <= bound
-        due[count] = i
+        listed[k, count] = i
         count += step % SUM_BLOCK == SUM_BLOCK - 1
     for n in range(count):
-        i = due[n]
+        i = listed[k, n]
         block = HISTORY + steps[k, i] // SUM_BLOCK
         for j in range(SUM_BLOCK):
             error_sums[k, block, i, j] = error_sums[k, WRITING, i, j]

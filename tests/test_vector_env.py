@@ -92,6 +92,19 @@ def test_each_autoreset_mode_behaves_exactly_like_sync_vector_env(kwargs, mode):
     assert ends >= num_envs * steps // (LIMIT + 1)  # truncations alone give this many
 
 
+def test_a_partial_reset_returns_the_latest_observations_even_where_the_caller_changed_them():
+    # The step returns its observation array as it is (a fresh one at every step); a reset of some sub-environments
+    # gives the others their latest observations from the env's own record, not from the array the caller holds.
+    env = _native(4, AutoresetMode.DISABLED, task="circle")
+    env.reset(seed=0)
+    observations = env.step(np.full((4, 2), 0.5, np.float32))[0]
+    latest = observations.copy()
+    observations[:] = 99.0
+    after, _ = env.reset(options={"reset_mask": np.array([True, False, False, False])})
+    np.testing.assert_array_equal(after[1:], latest[1:])
+    assert not np.array_equal(after[0], latest[0])
+
+
 @pytest.mark.parametrize(
     ("kwargs", "num_envs", "compared"),
     [pytest.param({"task": task}, 5, range(5), id=task) for task in sorted(TASKS)]

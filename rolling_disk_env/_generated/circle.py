@@ -57,7 +57,7 @@ def reset_share(k, resets, batch, setup, out):
     :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i of share k at ``k * columns +
     i``); ``batch``, ``setup`` and ``out`` are split into shares as :func:`step_rk4_share` takes them."""
     mask, rngs, uniforms, given = resets
-    lanes, goals, steps, error_sums = batch
+    lanes, goals, steps, error_sums, listed = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags = out
     options = (settings[0], settings[1], settings[2], settings[3])
@@ -128,7 +128,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums = batch
+    lanes, goals, steps, error_sums, listed = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
@@ -224,7 +224,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
+    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -266,7 +266,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums = batch
+    lanes, goals, steps, error_sums, listed = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
@@ -362,7 +362,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
+    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -404,7 +404,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums = batch
+    lanes, goals, steps, error_sums, listed = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
@@ -500,7 +500,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
+    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -542,7 +542,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums = batch
+    lanes, goals, steps, error_sums, listed = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
@@ -617,7 +617,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
+    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -659,7 +659,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
     (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
     that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
     of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums = batch
+    lanes, goals, steps, error_sums, listed = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags = out
     settings = (settings[0], settings[1], settings[2], settings[3])
@@ -715,7 +715,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(error_sums, lanes, steps, flags, k, disks, config[SUCCESS_BOUND])
+    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
     engine.transpose(info, OBSERVATION, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)

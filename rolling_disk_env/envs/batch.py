@@ -320,9 +320,12 @@ class DiskBatch:
         self._unchecked = 0  # steps before the history must be looked at again (_grow_tracking)
         history = -(-((max_episode_steps or 1024) + 2) // engine.SUM_BLOCK) if tracked else -engine.HISTORY
         self.error_sums = np.zeros((self.threads, engine.HISTORY + history, self.share, engine.SUM_BLOCK))
+        self.listed = np.zeros((self.threads, self.share if tracked else 0), dtype=np.int64)
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, config.state_size), np.nan)
-        self.rows = engine.TERMS + self.terms + self.observation_size + (0 if self.contact_rows is None else 5)
+        self.observation_rows = slice(engine.TERMS + self.terms, engine.TERMS + self.terms + self.observation_size)
+        """The rows of the observation (clipped, float64) in an info block."""
+        self.rows = self.observation_rows.stop + (0 if self.contact_rows is None else 5)
         """Rows of an info block."""
         self.setup = tuple(
             engine.SetupArrays(
@@ -364,7 +367,7 @@ class DiskBatch:
         self._bundle()
 
     def _bundle(self) -> None:
-        """The lanes, goals, step counts and error sums as the kernels take them
+        """The lanes, goals, step counts, error sums and list as the kernels take them
         (:class:`~rolling_disk_env.engine.BatchArrays`, a plain tuple), split into the shares (views)."""
         self._entries = [None, None]  # the compiled serial and threaded steps, once looked up (entry_point)
         split = (self.threads, self.share)
@@ -373,6 +376,7 @@ class DiskBatch:
             self.goals.reshape(-1, *split),
             self.steps.reshape(split),
             self.error_sums,
+            self.listed,
         )
 
     def reset(

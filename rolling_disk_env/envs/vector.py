@@ -84,7 +84,7 @@ class RollingDiskVectorEnv(VectorEnv):
         self._rngs = np.zeros((self.num_envs, 4), dtype=np.uint64)
         self._seeded = False
         self._ended = np.zeros(self.num_envs, dtype=bool)
-        self._observations: np.ndarray | None = None
+        self._last: Outputs | None = None  # the latest step's or reset's outputs
         self._term_keys = [f"reward_{name}" for name in self.task.reward_weights]
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
@@ -93,18 +93,18 @@ class RollingDiskVectorEnv(VectorEnv):
         states = self.config.reset_state(options, self.num_envs)
         self._seed(seed, mask)
         out = self._batch.outputs()
-        if self._observations is not None:
-            out.observations[:] = self._observations
+        if self._last is not None:  # the others' latest observations, from the info block: the caller may have
+            out.observations[:] = self._last.info[self._batch.observation_rows].T  # changed those returned
         self._batch.reset(mask, out, self._rngs, states)
         self._ended &= ~mask
-        self._observations = out.observations
+        self._last = out
         return out.observations.copy(), self._infos(out, mask)
 
     def _reset_mask(self, mask) -> np.ndarray:
         """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it; all envs when it is absent."""
         if mask is None:
             return np.ones(self.num_envs, dtype=bool)
-        if self._observations is None:
+        if self._last is None:
             raise ValueError('options["reset_mask"] resets some sub-environments: reset all of them first')
         if not isinstance(mask, np.ndarray) or mask.shape != (self.num_envs,) or mask.dtype != np.bool_:
             got = f"{type(mask).__name__} {getattr(mask, 'shape', '')} {getattr(mask, 'dtype', '')}"
@@ -132,7 +132,7 @@ class RollingDiskVectorEnv(VectorEnv):
         self._seeded = True
 
     def step(self, actions):
-        if self._observations is None:
+        if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         if type(actions) is not np.ndarray or actions.dtype != np.float32 or not actions.flags.c_contiguous:
             actions = checked_actions(actions, self.action_space.shape, "actions")
@@ -162,8 +162,10 @@ class RollingDiskVectorEnv(VectorEnv):
         else:
             infos = self._infos(out, None)
             self._ended = ended
-        self._observations = out.observations
-        return out.observations.copy(), rewards, terminated, truncated, infos
+        self._last = out
+        # The observations as they are: fresh arrays at every step, which the env reads no more (a reset takes the
+        # latest ones from the info block).
+        return out.observations, rewards, terminated, truncated, infos
 
     def _infos(self, out: Outputs, present: np.ndarray | None) -> dict:
         """The batched info of ``out``: every key, each with its mask ``present`` (None: every sub-environment)."""
