@@ -338,6 +338,22 @@ def test_tracking_success_is_the_mean_error_over_the_last_half_at_every_step():
     assert not successes[0] and successes[-1]
 
 
+def test_a_batch_stepped_past_its_episode_limit_without_resets_grows_its_success_history():
+    # engine.track writes the sums where the step counts say: a batch stepped on without its resets (as
+    # benchmarks/bench_dynamics.py steps one) must grow its history past max_episode_steps, not write beyond it.
+    env = gym.make_vec(
+        rd.TASK_IDS["circle"], num_envs=3, vectorization_mode="vector_entry_point", max_episode_steps=10
+    ).unwrapped
+    env.reset(seed=0)
+    batch = env._batch
+    out, actions = batch.outputs(), np.zeros((3, 2), dtype=np.float32)
+    first = batch.tracked_steps
+    for _ in range(3 * first):
+        batch.step(actions, out)
+    assert batch.steps[:3].tolist() == [3 * first] * 3
+    assert batch.tracked_steps > 3 * first
+
+
 def test_tracking_success_holds_past_the_first_rows_of_sums_in_an_endless_episode():
     # Without truncation the circle's tracking sums grow as the episode goes on (envs.batch: the rows double when a
     # step could write past them, looked at only as often as a step could get there): is_success is still the mean
