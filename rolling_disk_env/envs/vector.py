@@ -93,8 +93,9 @@ class RollingDiskVectorEnv(VectorEnv):
         states = self.config.reset_state(options, self.num_envs)
         self._seed(seed, mask)
         out = self._batch.outputs()
-        if self._last is not None:  # the others' latest observations, from the info block: the caller may have
-            out.observations[:] = self._last.info[self._batch.observation_rows].T  # changed those returned
+        if self._last is not None:
+            # The others' latest observations, from the info block: the caller may have changed those it was given.
+            out.observations[:] = self._last.info[self._batch.observation_rows].T
         self._batch.reset(mask, out, self._rngs, states)
         self._ended &= ~mask
         self._last = out
