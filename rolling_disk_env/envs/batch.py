@@ -230,29 +230,36 @@ class Outputs:
     Attributes:
         observations: (N, observation size), float32, clipped to the observation space.
         info: (engine.TERMS + terms + observation size (+ 5), N), float64, a column per disk: the state, energy,
-            contact forces, normal force, required friction, reward, termination code, reward terms (rows
-            ``engine.ENERGY`` and the others), then the observation (which the step copies into ``observations``),
-            then under the ``"sliding"`` and ``"coulomb"`` contacts the rows ``engine.SLIDING_INFO``.
+            contact forces, normal force, required friction, reward, reward terms (rows ``engine.ENERGY`` and the
+            others), then the observation (which the step copies into ``observations``), then under the
+            ``"sliding"`` and ``"coulomb"`` contacts the rows ``engine.SLIDING_INFO``.
         flags: (3, N), bool, a column per disk: terminated, truncated, success (rows ``engine.TERMINATED`` and the
             others).
+        codes: (N,), int64, the termination codes (``engine.RUNNING`` where the episode goes on).
         blocks: the arrays these are views of, as the reset takes them (padding included: a column or a row per
             column of the batch, :func:`columns`).
         shares: the same, as the step takes them: split into the batch's shares (``[row, k, i]``, ``[k, i, j]``).
     """
 
-    def __init__(self, num_envs: int, shares: tuple[np.ndarray, np.ndarray, np.ndarray]):
+    def __init__(self, num_envs: int, shares: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
         """
         Args:
             num_envs: N.
-            shares: the observations (shares, columns, size), info (rows, shares, columns) and flags (3, shares,
-                columns).
+            shares: the observations (shares, columns, size), info (rows, shares, columns), flags (3, shares,
+                columns) and codes (shares, columns): :class:`~rolling_disk_env.engine.OutputArrays`.
         """
         self.num_envs, self.shares = num_envs, shares
-        observations, info, flags = shares
+        observations, info, flags, codes = shares
         width = info.shape[1] * info.shape[2]
-        self.blocks = (observations.reshape(width, -1), info.reshape(-1, width), flags.reshape(3, width))
+        self.blocks = (
+            observations.reshape(width, -1),
+            info.reshape(-1, width),
+            flags.reshape(3, width),
+            codes.reshape(width),
+        )
         self.observations = self.blocks[0][:num_envs]
         self.info, self.flags = self.blocks[1][:, :num_envs], self.blocks[2][:, :num_envs]
+        self.codes = self.blocks[3][:num_envs]
 
     def __reduce__(self):
         """Pickles the arrays, not their views (which pickle as copies)."""
@@ -277,6 +284,7 @@ class Outputs:
                 make((count, share, observation_size), dtype=np.float32),
                 make((rows, count, share)),
                 make((3, count, share), dtype=bool),
+                make((count, share), dtype=np.int64),
             ),
         )
 

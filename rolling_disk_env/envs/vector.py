@@ -184,7 +184,7 @@ class RollingDiskVectorEnv(VectorEnv):
             "sliding": sliding,
             "slip_velocity": slip,
             "is_success": out.flags[engine.SUCCESS],
-            "termination": info[engine.STATUS].astype(np.int64),  # RUNNING (0) where not terminated
+            "termination": out.codes,  # RUNNING (0) where not terminated
         }
         infos.update(zip(self._term_keys, info[engine.TERMS :]))
         mask = np.ones(self.num_envs, dtype=bool) if present is None else present
@@ -202,5 +202,6 @@ class RollingDiskVectorEnv(VectorEnv):
         kept = Outputs.empty(self.num_envs, out.observations.shape[1], out.info.shape[0])
         kept.info[:, ended] = out.info[:, ended]
         kept.flags[:, ended] = out.flags[:, ended]
+        kept.codes[ended] = out.codes[ended]
         final_info = self._infos(kept, ended)
         return {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info, "_final_info": ended.copy()}

@@ -82,10 +82,6 @@ class Task(ABC):
         fall_lean: rad. The disk has fallen when |theta| exceeds it.
         success: the success rule, :data:`SURVIVE`, :data:`TRACK` or :data:`REACH`.
         success_bound: the bound of the success rule :data:`TRACK` (or of :data:`REACH`'s distance).
-        terms_loop: whether the fused step computes the reward terms, the observation and the flags in a loop over
-            the disks of their own, after the loop of the contact forces and the termination (fewer live values in
-            each loop), rather than in that loop (where the compiler computes the trigonometry both use once).
-            Measured on each task's step compiled for AVX2 (``benchmarks/bench_dynamics.py``).
     """
 
     name: ClassVar[str]
@@ -97,7 +93,6 @@ class Task(ABC):
     fall_lean: float
     success: ClassVar[int] = SURVIVE
     success_bound: float = math.inf
-    terms_loop: ClassVar[bool] = True
 
     @classmethod
     def source_hash(cls) -> str:
