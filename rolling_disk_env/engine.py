@@ -172,30 +172,17 @@ class ResetArrays(NamedTuple):
 def action_torques(actions, actuators, lanes, k, disks):
     """Writes the torques (N m) and the effort (the mean squared clipped action) of the ``disks`` disks of share k into
     their lanes, from their normalized actions (rows ``k * n ...`` of ``actions``, n disks a share) clipped to
-    [-1, 1]. ``actuators`` has a row per action component (at most two): (torque 0 (spin) or 1 (steer), the torque
-    of action +1 in N m). One loop over the disks for each count of components, which reads a disk's components
-    together (a loop over the components around a loop over the disks was 1.7 ns a disk of ``circle``'s step
-    compiled for AVX2, N = 4096, one thread)."""
+    [-1, 1]. ``actuators`` has a row per action component: (torque 0 (spin) or 1 (steer), the torque of action +1 in
+    N m)."""
     count, first = actions.shape[1], k * lanes.shape[2]
-    if count == 0:
+    for i in range(disks):
+        lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = lanes[EFFORT, k, i] = 0.0
+    for j in range(count):
+        row, limit = TAU_SPIN + int(actuators[j, 0]), actuators[j, 1]
         for i in range(disks):
-            lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = lanes[EFFORT, k, i] = 0.0
-    elif count == 1:
-        spin, limit = actuators[0, 0] == 0.0, actuators[0, 1]
-        for i in range(disks):
-            value = min(max(float(actions[first + i, 0]), -1.0), 1.0)
-            lanes[TAU_SPIN, k, i] = limit * value if spin else 0.0
-            lanes[TAU_STEER, k, i] = 0.0 if spin else limit * value
-            lanes[EFFORT, k, i] = value * value
-    else:
-        spin_first, limit_0, limit_1 = actuators[0, 0] == 0.0, actuators[0, 1], actuators[1, 1]
-        for i in range(disks):
-            value_0 = min(max(float(actions[first + i, 0]), -1.0), 1.0)
-            value_1 = min(max(float(actions[first + i, 1]), -1.0), 1.0)
-            tau_0, tau_1 = limit_0 * value_0, limit_1 * value_1
-            lanes[TAU_SPIN, k, i] = tau_0 if spin_first else tau_1
-            lanes[TAU_STEER, k, i] = tau_1 if spin_first else tau_0
-            lanes[EFFORT, k, i] = value_0 * value_0 / 2 + value_1 * value_1 / 2
+            value = min(max(float(actions[first + i, j]), -1.0), 1.0)
+            lanes[EFFORT, k, i] += value * value / count
+            lanes[row, k, i] = limit * value
 
 
 @kernel
