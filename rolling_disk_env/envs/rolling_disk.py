@@ -200,7 +200,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._track = None if self.render_mode is None else deque([tuple(batch.states[:2, 0])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
-        return self._out.observations[0].copy(), self._info()[0]
+        return self._out.observations[0].copy(), self._info(False)[0]
 
     def step(self, action):
         if not self._started:
@@ -210,7 +210,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         if self._batch.step(actions, out) >= 0:
             raise ValueError(f"action must be finite numbers, got {action!r}")
         terminated = bool(out.flags[engine.TERMINATED, 0])
-        info, reward = self._info()
+        info, reward = self._info(terminated)
         if self._track is not None:
             self._track.append(tuple(self._batch.states[:2, 0]))
         if self.render_mode == "human":
@@ -228,7 +228,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             return action.reshape(1, -1)
         return checked_actions(action, self.action_space.shape).reshape(1, -1)
 
-    def _info(self) -> tuple[dict, float]:
+    def _info(self, terminated: bool) -> tuple[dict, float]:
         """The info, from a copy of the disk's column of the info block (its arrays are views of that copy), with the
         same keys at every step and reset; and the reward."""
         column = self._out.info[:, 0].copy()
@@ -243,7 +243,7 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             "sliding": first is not None and values[first + 4] > 0.0,
             "slip_velocity": np.zeros(2) if first is None else column[first + 2 : first + 4],
             "is_success": bool(self._out.flags[engine.SUCCESS, 0]),
-            "termination": int(self._out.codes[0]),
+            "termination": self._out.codes.item(0) if terminated else engine.RUNNING,
         }
         info.update(zip(self._term_keys, values[engine.TERMS :]))
         return info, values[engine.REWARD]
