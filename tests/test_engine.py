@@ -296,3 +296,21 @@ def test_thread_choice_stays_on_the_threads_through_single_held_up_steps():
         choice.record(threaded, (14e-3 if step % 300 == 150 else 0.4e-3) if threaded else 0.8e-3)
         ways.append(threaded)
     assert ways[100:].count(True) >= 0.97 * 2900
+
+
+@pytest.mark.parametrize("columns", [1, 2])
+def test_the_first_row_with_a_nan_or_inf_is_found_wherever_it_is(columns):
+    # The check counts non-finite values in a vectorized loop before it searches: put them where the loop's vector
+    # body reads them (not only its scalar remainder), next to the float32 extremes that are finite.
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1.0, 1.0, (1001, columns)).astype(np.float32)
+    extremes = np.finfo(np.float32)
+    actions[3, 0], actions[4, -1], actions[5, 0] = extremes.max, -extremes.max, extremes.smallest_subnormal
+    actions[6, -1] = -0.0
+    assert engine.first_nonfinite(actions) == -1
+    for value in (np.nan, -np.nan, np.inf, -np.inf):
+        for rows in ([0], [517, 800], [1000]):
+            bad = actions.copy()
+            bad[rows, -1] = value
+            expected = int(np.flatnonzero(~np.isfinite(bad).all(axis=1))[0])
+            assert engine.first_nonfinite(bad) == expected == rows[0]
