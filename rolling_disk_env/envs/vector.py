@@ -99,7 +99,7 @@ class RollingDiskVectorEnv(VectorEnv):
         self._batch.reset(mask, out, self._rngs, states)
         self._ended &= ~mask
         self._last = out
-        return out.observations.copy(), self._infos(out, mask)
+        return out.observations, self._infos(out, mask)  # fresh arrays, as the step's
 
     def _reset_mask(self, mask) -> np.ndarray:
         """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it; all envs when it is absent."""
