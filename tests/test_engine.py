@@ -185,6 +185,24 @@ def test_the_padding_of_a_batch_takes_ordinary_steps(integrator):
     assert len(padding) > 0 and np.all(padding == 0)
 
 
+def test_a_batch_steps_with_and_without_resets_in_either_order():
+    # A batch looks its compiled step up once for the types of the arguments (entry_point): called without resets
+    # after a step with them, and back, each call needs the function compiled for its own (the other would crash).
+    envs = [rd.RollingDiskVectorEnv(num_envs=4) for _ in range(2)]
+    actions = np.full((4, 2), 0.5, dtype=np.float32)
+    for env in envs:
+        env.reset(seed=1)
+        env.step(actions)  # the vector env passes its resets (none here)
+    batch, twin = envs[0]._batch, envs[1]._batch
+    batch.step(actions, batch.outputs())  # as the single env steps: no resets
+    envs[1].step(actions)
+    np.testing.assert_array_equal(batch.states, twin.states)
+    envs[0].step(actions)
+    envs[1].step(actions)
+    np.testing.assert_array_equal(batch.states, twin.states)
+    assert not np.array_equal(batch.states[:, :4], np.tile(batch.states[:, :1], 4))  # four different disks
+
+
 @pytest.mark.parametrize("substeps", [1, 3])
 @pytest.mark.parametrize("integrator", ["euler", "symplectic_euler", "rk4"])
 def test_the_vector_envs_steps_are_the_model_apis_to_the_last_bit(integrator, substeps):

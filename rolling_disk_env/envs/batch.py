@@ -388,7 +388,7 @@ class DiskBatch:
     def _bundle(self) -> None:
         """The lanes, goals, step counts, error sums and list as the kernels take them
         (:class:`~rolling_disk_env.engine.BatchArrays`, a plain tuple), split into the shares (views)."""
-        self._entries = [None, None]  # the compiled serial and threaded steps, once looked up (entry_point)
+        self._entries = [None] * 4  # the compiled steps, serial or threaded, with resets or without (entry_point)
         split = (self.threads, self.share)
         self._shares = (
             self.lanes.reshape(-1, *split),
@@ -482,8 +482,10 @@ class DiskBatch:
         """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
         passes: ``actions`` a C-contiguous float32 (N, A) array, the batch's own arrays, outputs of :meth:`outputs`,
         and the resets (:class:`~rolling_disk_env.engine.ResetArrays`: a C-contiguous bool mask, uint64 PCG64
-        states, the batch's uniforms and :attr:`no_state`), or None."""
-        entry = self._entries[threaded]
+        states, the batch's uniforms and :attr:`no_state`), or None: a function for each (the one compiled for
+        resets, called without, would crash)."""
+        key = 2 * threaded + (arguments[-1] is None)
+        entry = self._entries[key]
         if entry is None:
-            entry = self._entries[threaded] = entry_point(self._steps[threaded], arguments)
+            entry = self._entries[key] = entry_point(self._steps[threaded], arguments)
         return entry
