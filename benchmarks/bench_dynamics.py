@@ -2,7 +2,8 @@
 
 ``python benchmarks/bench_dynamics.py [--quick] [--out DIR]`` writes ``dynamics.md`` to DIR (default
 ``benchmarks/results``). Every time is a median of 7 runs (3 with ``--quick``), disks on the paper's scenario 1
-without torques, RK4 steps of 0.01 s on the full model.
+without torques, RK4 steps of 0.01 s on the full model. The loops of a table row in 2. and 3. are timed in turn
+within each run, so that a slow spell of the shared machine hits all of them alike.
 
 1. One disk: ``rd.simulate`` (what a user calls: a Python loop over output steps, with the contact check at each)
    and one call of ``engine.advance`` on one row (the model API's compiled loop: the call's overhead included).
@@ -26,7 +27,7 @@ import math
 import gymnasium as gym
 import numba
 import numpy as np
-from _common import TARGETS, arguments, cpu, in_target, median_seconds, table, write_markdown
+from _common import TARGETS, arguments, cpu, in_target, median_seconds, medians_in_turns, table, write_markdown
 
 import rolling_disk_env as rd
 from rolling_disk_env import engine, trig
@@ -106,38 +107,59 @@ def one_disk_rows(repeat: int) -> list[list[object]]:
     ]
 
 
-def fused_step_seconds(task: str, n: int, repeat: int) -> float:
-    """Seconds of one fused step of the vector env of ``task`` with n disks on one thread (the cost a disk), the disks
-    on scenario 1 (as the lanes loop's: it precesses at a lean of 0.1 rad, so no episode ends by falling)."""
-    threads_from, envs_batch.THREADS_FROM = envs_batch.THREADS_FROM, n + 1
-    env = gym.make_vec(rd.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", task=task)
-    envs_batch.THREADS_FROM = threads_from
-    env.reset(seed=0, options={"state": np.tile(SCENARIO_1, (n, 1))})
-    batch = env.unwrapped._batch
-    out, actions = batch.outputs(), np.zeros((n, env.single_action_space.shape[0]), dtype=np.float32)
-    batch.step(actions, out)
-    seconds = median_seconds(lambda: batch.step(actions, out), max(3, 200_000 // n), repeat)
-    env.close()
-    return seconds
+class FusedStep:
+    """The vector env of ``task`` with n disks on one thread, the disks on scenario 1 (as the lanes loop's: it
+    precesses at a lean of 0.1 rad, so no episode ends by falling); a call times one sample of its fused step and
+    returns the seconds of one step."""
+
+    def __init__(self, task: str, n: int):
+        threads_from, envs_batch.THREADS_FROM = envs_batch.THREADS_FROM, n + 1
+        self.env = gym.make_vec(rd.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", task=task)
+        envs_batch.THREADS_FROM = threads_from
+        self.env.reset(seed=0, options={"state": np.tile(SCENARIO_1, (n, 1))})
+        self.batch = self.env.unwrapped._batch
+        self.out = self.batch.outputs()
+        self.actions = np.zeros((n, self.env.single_action_space.shape[0]), dtype=np.float32)
+        self.step()
+        self.number = max(3, 200_000 // n)
+
+    def step(self) -> None:
+        self.batch.step(self.actions, self.out)
+
+    def __call__(self) -> float:
+        return median_seconds(self.step, self.number, 1)
 
 
-def lanes_seconds(n: int, repeat: int) -> float:
-    """Seconds of :func:`rk4_lanes` on n disks on scenario 1."""
-    lanes = np.zeros((engine.LANES, n))
-    lanes[:8] = np.array(SCENARIO_1)[:, None]
-    lanes[engine.MASS : engine.RADIUS + 1] = np.array(DISK)[:, None]
-    rk4_lanes(lanes, DT)
-    return median_seconds(lambda: rk4_lanes(lanes, DT), max(3, 200_000 // n), repeat)
+class LanesLoop:
+    """:func:`rk4_lanes` on n disks on scenario 1; a call times one sample and returns the seconds of one loop."""
+
+    def __init__(self, n: int):
+        self.lanes = np.zeros((engine.LANES, n))
+        self.lanes[:8] = np.array(SCENARIO_1)[:, None]
+        self.lanes[engine.MASS : engine.RADIUS + 1] = np.array(DISK)[:, None]
+        self.step()
+        self.number = max(3, 200_000 // n)
+
+    def step(self) -> None:
+        rk4_lanes(self.lanes, DT)
+
+    def __call__(self) -> float:
+        return median_seconds(self.step, self.number, 1)
 
 
 def batch_rows(sizes, repeat: int) -> list[list[object]]:
-    env_step = {n: fused_step_seconds("upright", n, repeat) for n in sizes}
     result = []
     for n in sizes:
-        rows = Rows(n)
+        rows, fused = Rows(n), FusedStep("upright", n)
         rows.advance()
-        advance = median_seconds(rows.advance, max(3, 200_000 // n), repeat)
-        lanes = lanes_seconds(n, repeat)
+        runs = {
+            "advance": lambda rows=rows, n=n: median_seconds(rows.advance, max(3, 200_000 // n), 1),
+            "lanes": LanesLoop(n),
+            "fused": fused,
+        }
+        seconds = medians_in_turns(runs, repeat)
+        fused.env.close()
+        advance, lanes, step = seconds["advance"], seconds["lanes"], seconds["fused"]
         result.append(
             [
                 n,
@@ -145,8 +167,8 @@ def batch_rows(sizes, repeat: int) -> list[list[object]]:
                 f"{n / advance / 1e6:.2f}",
                 f"{lanes / n * 1e9:.0f}",
                 f"{n / lanes / 1e6:.2f}",
-                f"{env_step[n] / n * 1e9:.0f}",
-                f"{lanes / env_step[n]:.2f}",
+                f"{step / n * 1e9:.0f}",
+                f"{lanes / step:.2f}",
             ]
         )
     return result
@@ -154,12 +176,15 @@ def batch_rows(sizes, repeat: int) -> list[list[object]]:
 
 def fused_rows(n: int, repeat: int) -> list[list[object]]:
     """Per task: the fused step and RK4's lanes loop on n disks, ns a disk, and their ratio (in this process's
-    compile target)."""
-    lanes = lanes_seconds(n, repeat) / n * 1e9
+    compile target); each repeat times the lanes loop and every task's step in turn, the medians are reported."""
+    runs = {"rk4": LanesLoop(n), **{task: FusedStep(task, n) for task in TASKS}}
+    seconds = medians_in_turns(runs, repeat)
+    lanes = seconds["rk4"] / n * 1e9
     rows = []
     for task in TASKS:
-        fused = fused_step_seconds(task, n, repeat) / n * 1e9
+        fused = seconds[task] / n * 1e9
         rows.append([task, f"{fused:.0f}", f"{lanes:.0f}", f"{fused / lanes:.2f}"])
+        runs[task].env.close()
     return rows
 
 
