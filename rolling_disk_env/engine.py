@@ -29,7 +29,7 @@ import numpy as np
 
 from rolling_disk_env._generated import kernels, sliding
 from rolling_disk_env.constants import ENGINE_METHODS, EVENT_TIME_TOLERANCE, LEAN_LIMIT, ZERO_SLIP
-from rolling_disk_env.jit import inline_kernel, kernel
+from rolling_disk_env.jit import SCATTER, inline_kernel, kernel
 
 METHODS = ENGINE_METHODS
 """The engine's integrators, by code (their index): fixed steps, then the error-controlled Dormand-Prince 5(4)."""
@@ -240,10 +240,18 @@ def centre_velocity(x, trig, m, g, r):
 @inline_kernel
 def transpose(info, first, observations, k):
     """Copies the observations of the disks of share k from their columns of ``info`` (rows from ``first``) into
-    their rows of ``observations``."""
-    for j in range(observations.shape[2]):
+    their rows of ``observations``: where the target scatters stores (:data:`~rolling_disk_env.jit.SCATTER`), a row
+    of ``info`` at a time, vectorized; elsewhere a disk at a time, its observation's values stored together. (Measured
+    on an Intel Xeon, `circle`'s step, N = 4096, one thread, medians of 4 interleaved fresh processes: AVX2 code 79
+    against 83 ns a disk the other way; AVX-512 code 71 against 74.)"""
+    if SCATTER:
+        for j in range(observations.shape[2]):
+            for i in range(observations.shape[1]):
+                observations[k, i, j] = info[first + j, k, i]
+    else:
         for i in range(observations.shape[1]):
-            observations[k, i, j] = info[first + j, k, i]
+            for j in range(observations.shape[2]):
+                observations[k, i, j] = info[first + j, k, i]
 
 
 @kernel
