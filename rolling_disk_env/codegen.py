@@ -588,7 +588,7 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
 {advance}{handover}{finish}{track}
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -858,7 +858,9 @@ def generate_steps(task) -> str:
             '"""The sha256 of the task module these steps were generated from."""',
             f"OBSERVATION = TERMS + {terms}",
             '"""The first row of the observation in an info block, after the reward terms."""',
-            f"CONTACT_ROWS = OBSERVATION + {observations}",
+            f"OBSERVATION_SIZE = {observations}",
+            '"""Values in an observation (a constant of the compiled steps: engine.transpose unrolls by it)."""',
+            "CONTACT_ROWS = OBSERVATION + OBSERVATION_SIZE",
             '"""The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""',
         ]
     )

@@ -114,24 +114,6 @@ def _allow_memory_checks() -> None:
 
 _allow_memory_checks()
 
-
-def _target_features() -> set[str]:
-    """The CPU features numba compiles for, by its own rule: ``NUMBA_CPU_FEATURES`` where set, else the host's (also
-    where ``NUMBA_CPU_NAME`` alone is set)."""
-    features = numba.config.CPU_FEATURES
-    if features is None:
-        try:
-            features = llvmlite.binding.get_host_cpu_features().flatten()
-        except RuntimeError:  # where LLVM cannot tell (numba then gives none too)
-            features = ""
-    return set(features.split(","))
-
-
-SCATTER = "+avx512f" in _target_features()
-"""Whether the compile target stores a vector into scattered addresses (AVX-512 does; AVX2 and SSE2 store each lane
-on its own). A kernel may choose a loop's order by it: numba compiles the global as a constant, and caches the kernels
-of each target apart."""
-
 kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy")
 """Compiles a function of one disk, or a loop over a batch of disks, cached (where a directory is writable)."""
 inline_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", inline="always")

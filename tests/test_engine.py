@@ -185,13 +185,10 @@ def test_the_padding_of_a_batch_takes_ordinary_steps(integrator):
     assert len(padding) > 0 and np.all(padding == 0)
 
 
-@pytest.mark.parametrize("scatter", [True, False])
-def test_the_observations_transpose_in_either_loop_order(monkeypatch, scatter):
-    # The loop order follows the compile target (jit.SCATTER); both give each disk's row of its info column.
-    monkeypatch.setattr(engine, "SCATTER", scatter)
+def test_the_observations_are_copied_into_each_disks_row():
     info = np.random.default_rng(0).normal(size=(12, 2, 5))
     observations = np.zeros((2, 5, 4), dtype=np.float32)
-    engine.transpose.py_func(info, 3, observations, 1)
+    engine.transpose.py_func(info, 3, 4, observations, 1)
     np.testing.assert_array_equal(observations[1], info[3:7, 1].T.astype(np.float32))
     assert not observations[0].any()
 

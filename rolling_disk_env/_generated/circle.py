@@ -28,7 +28,9 @@ TASK_SOURCE = "ef82fb01948ddde1c490ececd7f877a9e2df1a2f8a75f16f20aaa885a411a39d"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
-CONTACT_ROWS = OBSERVATION + 8
+OBSERVATION_SIZE = 8
+"""Values in an observation (a constant of the compiled steps: engine.transpose unrolls by it)."""
+CONTACT_ROWS = OBSERVATION + OBSERVATION_SIZE
 """The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""
 
 
@@ -228,7 +230,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -368,7 +370,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -508,7 +510,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -627,7 +629,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -726,7 +728,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 

@@ -28,7 +28,9 @@ TASK_SOURCE = "9d60397811d39c7caa43b77b900dba63e34fa2ddc768239344a531069c122e50"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 7
 """The first row of the observation in an info block, after the reward terms."""
-CONTACT_ROWS = OBSERVATION + 7
+OBSERVATION_SIZE = 7
+"""Values in an observation (a constant of the compiled steps: engine.transpose unrolls by it)."""
+CONTACT_ROWS = OBSERVATION + OBSERVATION_SIZE
 """The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""
 
 
@@ -226,7 +228,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -364,7 +366,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -502,7 +504,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -619,7 +621,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -716,7 +718,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 

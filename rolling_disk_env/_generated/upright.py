@@ -28,7 +28,9 @@ TASK_SOURCE = "ba6072f60cdd1a1f39faae4d84d4d1ecfda094a5cab9e15ed9803392263275e4"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
-CONTACT_ROWS = OBSERVATION + 4
+OBSERVATION_SIZE = 4
+"""Values in an observation (a constant of the compiled steps: engine.transpose unrolls by it)."""
+CONTACT_ROWS = OBSERVATION + OBSERVATION_SIZE
 """The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""
 
 
@@ -222,7 +224,7 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -356,7 +358,7 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -490,7 +492,7 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -603,7 +605,7 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
@@ -696,7 +698,7 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
-    engine.transpose(info, OBSERVATION, observations, k)
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
 
