@@ -107,6 +107,11 @@ def one_disk_rows(repeat: int) -> list[list[object]]:
     ]
 
 
+def sample_seconds(call, n: int) -> float:
+    """Seconds of one call of ``call``, a loop over n disks, from one sample of calls (about 200,000 disk-steps)."""
+    return median_seconds(call, max(3, 200_000 // n), 1)
+
+
 class FusedStep:
     """The vector env of ``task`` with n disks on one thread, the disks on scenario 1 (as the lanes loop's: it
     precesses at a lean of 0.1 rad, so no episode ends by falling); a call times one sample of its fused step and
@@ -120,14 +125,14 @@ class FusedStep:
         self.batch = self.env.unwrapped._batch
         self.out = self.batch.outputs()
         self.actions = np.zeros((n, self.env.single_action_space.shape[0]), dtype=np.float32)
+        self.n = n
         self.step()
-        self.number = max(3, 200_000 // n)
 
     def step(self) -> None:
         self.batch.step(self.actions, self.out)
 
     def __call__(self) -> float:
-        return median_seconds(self.step, self.number, 1)
+        return sample_seconds(self.step, self.n)
 
 
 class LanesLoop:
@@ -137,14 +142,14 @@ class LanesLoop:
         self.lanes = np.zeros((engine.LANES, n))
         self.lanes[:8] = np.array(SCENARIO_1)[:, None]
         self.lanes[engine.MASS : engine.RADIUS + 1] = np.array(DISK)[:, None]
+        self.n = n
         self.step()
-        self.number = max(3, 200_000 // n)
 
     def step(self) -> None:
         rk4_lanes(self.lanes, DT)
 
     def __call__(self) -> float:
-        return median_seconds(self.step, self.number, 1)
+        return sample_seconds(self.step, self.n)
 
 
 def batch_rows(sizes, repeat: int) -> list[list[object]]:
@@ -153,7 +158,7 @@ def batch_rows(sizes, repeat: int) -> list[list[object]]:
         rows, fused = Rows(n), FusedStep("upright", n)
         rows.advance()
         runs = {
-            "advance": lambda rows=rows, n=n: median_seconds(rows.advance, max(3, 200_000 // n), 1),
+            "advance": lambda rows=rows, n=n: sample_seconds(rows.advance, n),
             "lanes": LanesLoop(n),
             "fused": fused,
         }
