@@ -594,9 +594,11 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_{method}(actions, batch, setup, out, resets):
-    \"\"\"Steps a batch (see :func:`step_{method}_share`), its shares one after the other on the calling thread;
-    returns the first disk with a non-finite action (then nothing is stepped), or -1.\"\"\"
+def step_{method}(actions, arrays, out, resets):
+    \"\"\"Steps a batch (see :func:`step_{method}_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
+    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
+    nothing is stepped), or -1.\"\"\"
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -605,9 +607,10 @@ def step_{method}(actions, batch, setup, out, resets):
 
 
 @parallel_kernel
-def step_{method}_threads(actions, batch, setup, out, resets):
+def step_{method}_threads(actions, arrays, out, resets):
     \"\"\":func:`step_{method}` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share).\"\"\"
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -618,16 +621,18 @@ def step_{method}_threads(actions, batch, setup, out, resets):
 
 RESET_TEMPLATE = """
 @kernel
-def reset(resets, batch, setup, out):
-    \"\"\"Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`), the shares one after the
-    other on the calling thread.\"\"\"
+def reset(resets, arrays, out):
+    \"\"\"Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`; ``arrays`` the batch's
+    :class:`~rolling_disk_env.engine.Bundle`), the shares one after the other on the calling thread.\"\"\"
+    batch, setup = arrays.batch, arrays.setup
     for k in range(batch[0].shape[1]):
         reset_share(np.int64(k), resets, batch, setup, out)
 
 
 @parallel_kernel
-def reset_threads(resets, batch, setup, out):
+def reset_threads(resets, arrays, out):
     \"\"\":func:`reset` with the shares on numba's threads, a share per thread.\"\"\"
+    batch, setup = arrays.batch, arrays.setup
     for k in prange(batch[0].shape[1]):
         reset_share(np.int64(k), resets, batch, setup, out)
 

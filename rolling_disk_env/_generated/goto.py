@@ -35,16 +35,18 @@ CONTACT_ROWS = OBSERVATION + OBSERVATION_SIZE
 
 
 @kernel
-def reset(resets, batch, setup, out):
-    """Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`), the shares one after the
-    other on the calling thread."""
+def reset(resets, arrays, out):
+    """Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`; ``arrays`` the batch's
+    :class:`~rolling_disk_env.engine.Bundle`), the shares one after the other on the calling thread."""
+    batch, setup = arrays.batch, arrays.setup
     for k in range(batch[0].shape[1]):
         reset_share(np.int64(k), resets, batch, setup, out)
 
 
 @parallel_kernel
-def reset_threads(resets, batch, setup, out):
+def reset_threads(resets, arrays, out):
     """:func:`reset` with the shares on numba's threads, a share per thread."""
+    batch, setup = arrays.batch, arrays.setup
     for k in prange(batch[0].shape[1]):
         reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -234,9 +236,11 @@ def step_euler_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_euler(actions, batch, setup, out, resets):
-    """Steps a batch (see :func:`step_euler_share`), its shares one after the other on the calling thread;
-    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
+def step_euler(actions, arrays, out, resets):
+    """Steps a batch (see :func:`step_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
+    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
+    nothing is stepped), or -1."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -245,9 +249,10 @@ def step_euler(actions, batch, setup, out, resets):
 
 
 @parallel_kernel
-def step_euler_threads(actions, batch, setup, out, resets):
+def step_euler_threads(actions, arrays, out, resets):
     """:func:`step_euler` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -372,9 +377,11 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_symplectic_euler(actions, batch, setup, out, resets):
-    """Steps a batch (see :func:`step_symplectic_euler_share`), its shares one after the other on the calling thread;
-    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
+def step_symplectic_euler(actions, arrays, out, resets):
+    """Steps a batch (see :func:`step_symplectic_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
+    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
+    nothing is stepped), or -1."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -383,9 +390,10 @@ def step_symplectic_euler(actions, batch, setup, out, resets):
 
 
 @parallel_kernel
-def step_symplectic_euler_threads(actions, batch, setup, out, resets):
+def step_symplectic_euler_threads(actions, arrays, out, resets):
     """:func:`step_symplectic_euler` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -510,9 +518,11 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_rk4(actions, batch, setup, out, resets):
-    """Steps a batch (see :func:`step_rk4_share`), its shares one after the other on the calling thread;
-    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
+def step_rk4(actions, arrays, out, resets):
+    """Steps a batch (see :func:`step_rk4_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
+    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
+    nothing is stepped), or -1."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -521,9 +531,10 @@ def step_rk4(actions, batch, setup, out, resets):
 
 
 @parallel_kernel
-def step_rk4_threads(actions, batch, setup, out, resets):
+def step_rk4_threads(actions, arrays, out, resets):
     """:func:`step_rk4` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -627,9 +638,11 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_dopri5(actions, batch, setup, out, resets):
-    """Steps a batch (see :func:`step_dopri5_share`), its shares one after the other on the calling thread;
-    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
+def step_dopri5(actions, arrays, out, resets):
+    """Steps a batch (see :func:`step_dopri5_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
+    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
+    nothing is stepped), or -1."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -638,9 +651,10 @@ def step_dopri5(actions, batch, setup, out, resets):
 
 
 @parallel_kernel
-def step_dopri5_threads(actions, batch, setup, out, resets):
+def step_dopri5_threads(actions, arrays, out, resets):
     """:func:`step_dopri5` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -724,9 +738,11 @@ def step_contact_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_contact(actions, batch, setup, out, resets):
-    """Steps a batch (see :func:`step_contact_share`), its shares one after the other on the calling thread;
-    returns the first disk with a non-finite action (then nothing is stepped), or -1."""
+def step_contact(actions, arrays, out, resets):
+    """Steps a batch (see :func:`step_contact_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
+    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
+    nothing is stepped), or -1."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -735,9 +751,10 @@ def step_contact(actions, batch, setup, out, resets):
 
 
 @parallel_kernel
-def step_contact_threads(actions, batch, setup, out, resets):
+def step_contact_threads(actions, arrays, out, resets):
     """:func:`step_contact` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
+    batch, setup = arrays.batch, arrays.setup
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):

@@ -159,10 +159,11 @@ def entry_point(kernel, args: tuple):
     """The compiled function of ``kernel`` for the types of ``args``, to call with arguments of those types.
 
     A call through numba's dispatcher first types every argument to choose the compiled function: the arrays of a
-    batch, in tuples, take a fifth of a single env's step that way (measured: a step's kernel called through the
-    dispatcher 3.3 us, the compiled function 1.9 us). A batch calls its step with arrays of the same types at every
-    step, so it looks the function up once: ``Dispatcher.compile`` returns the one compiled or cached for the types
-    (compiling it where there is none). Where numba's JIT is disabled (``NUMBA_DISABLE_JIT=1``), the kernel itself.
+    batch, in tuples, took a fifth of a single env's step that way (measured: a step's kernel called through the
+    dispatcher 3.3 us, the compiled function 1.9 us; the batch's arrays now travel in a
+    :class:`~rolling_disk_env.engine.Bundle`). A batch calls its step with arrays of the same types at every step, so
+    it looks the function up once: ``Dispatcher.compile`` returns the one compiled or cached for the types (compiling
+    it where there is none). Where numba's JIT is disabled (``NUMBA_DISABLE_JIT=1``), the kernel itself.
     """
     if not hasattr(kernel, "compile"):
         return kernel
@@ -379,24 +380,26 @@ class DiskBatch:
 
     def __getstate__(self) -> dict:
         """Pickles the arrays, not the views of them the step takes (which would pickle as copies)."""
-        return {key: value for key, value in self.__dict__.items() if key not in ("_shares", "_entries")}
+        return {key: value for key, value in self.__dict__.items() if key not in ("_arrays", "_entries")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._bundle()
 
     def _bundle(self) -> None:
-        """The lanes, goals, step counts, error sums and list as the kernels take them
-        (:class:`~rolling_disk_env.engine.BatchArrays`, a plain tuple), split into the shares (views)."""
+        """The lanes, goals, step counts, error sums and list (:class:`~rolling_disk_env.engine.BatchArrays`, a plain
+        tuple) split into the shares (views), with the settings, in the :class:`~rolling_disk_env.engine.Bundle` the
+        kernels take."""
         self._entries = [None] * 4  # the compiled steps, serial or threaded, with resets or without (entry_point)
         split = (self.threads, self.share)
-        self._shares = (
+        shares = (
             self.lanes.reshape(-1, *split),
             self.goals.reshape(-1, *split),
             self.steps.reshape(split),
             self.error_sums,
             self.listed,
         )
+        self._arrays = engine.bundle(shares, self.setup)
 
     def reset(
         self, mask: np.ndarray, out: Outputs, rngs: np.ndarray | None = None, states: np.ndarray | None = None
@@ -415,7 +418,7 @@ class DiskBatch:
         states = self.no_state if states is None else states
         reset = self._resets[self.choice is not None and self.choice.threaded]
         given = states if self.contact_rows is None else np.ascontiguousarray(states[:, list(ROLLING_INDICES)])
-        reset((mask, rngs, self.uniforms, given), self._shares, self.setup, out.shares)
+        reset((mask, rngs, self.uniforms, given), self._arrays, out.shares)
         self._start_contact(mask, out, states)
 
     def _start_contact(self, mask: np.ndarray, out: Outputs, states: np.ndarray) -> None:
@@ -446,7 +449,7 @@ class DiskBatch:
         # Without resets, the step compiled for none (4 arrays fewer to pass: 0.4 us of a single env's step).
         rngs = self._no_rngs if rngs is None else rngs
         resets = None if resetting is None else (resetting, rngs, self.uniforms, self.no_state)
-        arguments = (actions, self._shares, self.setup, out.shares, resets)
+        arguments = (actions, self._arrays, out.shares, resets)
         if self.choice is None:
             bad = self._step(False, arguments)(*arguments)
         else:
@@ -480,7 +483,7 @@ class DiskBatch:
 
     def _step(self, threaded: bool, arguments: tuple):
         """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
-        passes: ``actions`` a C-contiguous float32 (N, A) array, the batch's own arrays, outputs of :meth:`outputs`,
+        passes: ``actions`` a C-contiguous float32 (N, A) array, the batch's bundle, outputs of :meth:`outputs`,
         and the resets (:class:`~rolling_disk_env.engine.ResetArrays`: a C-contiguous bool mask, uint64 PCG64
         states, the batch's uniforms and :attr:`no_state`), or None: a function for each (the one compiled for
         resets, called without, would crash)."""
