@@ -285,6 +285,7 @@ def test_pickle_round_trip_keeps_the_episode():
     a, b = env.step(action), clone.step(action)
     np.testing.assert_array_equal(a[0], b[0])
     assert a[1] == b[1]
+    np.testing.assert_array_equal(a[4]["state"], b[4]["state"])
 
 
 def test_pickle_after_render_rebuilds_the_renderer():
