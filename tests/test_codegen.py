@@ -25,10 +25,6 @@ def test_generated_code_is_current(generated, filename):
 
 
 def test_import_loads_neither_sympy_nor_numba_nor_torch():
-    code = (
-        "import sys, time; t = time.perf_counter(); import rolling_disk_env; "
-        "print(time.perf_counter() - t, *(name in sys.modules for name in ('sympy', 'numba', 'torch')))"
-    )
-    seconds, *loaded = subprocess.check_output([sys.executable, "-c", code], text=True).split()
+    code = "import sys, rolling_disk_env; print(*(name in sys.modules for name in ('sympy', 'numba', 'torch')))"
+    loaded = subprocess.check_output([sys.executable, "-c", code], text=True).split()
     assert loaded == ["False", "False", "False"]
-    assert float(seconds) < 1.0
