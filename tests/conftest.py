@@ -1,7 +1,23 @@
-"""Test-wide settings: headless rendering and a quiet matplotlib."""
+"""Test-wide settings: headless rendering, a quiet matplotlib, and at most :data:`MAX_WORKERS` pytest-xdist workers
+for ``-n auto`` (the README's test command)."""
 
 import os
+
+import pytest
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+MAX_WORKERS = 8
+"""A worker holds numba, SymPy and torch: the largest process of the suite took 963 MB (2 workers, ``ru_maxrss`` of
+pytest's children), and a container can see more CPUs than it may use. A few tests take about a minute each alone
+(the SymPy derivation that ``test_codegen`` checks, 70 s cold), which more workers do not shorten."""
+
+
+@pytest.hookimpl(optionalhook=True, wrapper=True)
+def pytest_xdist_auto_num_workers(config):
+    """pytest-xdist's count of CPUs for ``-n auto``, at most :data:`MAX_WORKERS` unless the user sets the count
+    (``PYTEST_XDIST_AUTO_NUM_WORKERS``)."""
+    workers = yield
+    return workers if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS") else min(workers, MAX_WORKERS)
