@@ -67,12 +67,12 @@ class ThreadChoice:
     calling thread, numba's threads have gone to sleep and the first threaded step waits for them to wake (measured:
     probes of one step timed the threads at 1.5 times their steady step, at N = 4096, and kept on the calling thread a
     batch that the threads step twice as fast); after a spell on the threads, the first serial step finds half the disks
-    in the other core's cache. The first steps try each way as a probe does. Then the faster way is used, its time a
-    moving average of its steps (weight :data:`WEIGHT` on the latest, a step counted at most twice the average: one
-    step held up by the machine, a vCPU descheduled for some milliseconds, does not switch ways; a load that lasts
-    does, within a few steps). Now and then :data:`PROBE_STEPS` steps try the other way (a probe), whose time the
-    fastest of them sets (a single step held up would misjudge it), so that a change of load (another process starting
-    or ending on the cores) is followed.
+    in the other core's cache. The first steps try each way as a probe does (the losing way's steps are a lost probe's
+    cost). Then the faster way is used, its time a moving average of its steps (weight :data:`WEIGHT` on the latest, a
+    step counted at most twice the average: one step held up by the machine, a vCPU descheduled for some milliseconds,
+    does not switch ways; a load that lasts does, within a few steps). Now and then :data:`PROBE_STEPS` steps try the
+    other way (a probe), whose time the fastest of them sets (a single step held up would misjudge it), so that a change
+    of load (another process starting or ending on the cores) is followed.
 
     A probe that loses costs the time its steps took beyond the way in use, and that cost sets when the next comes: at
     most :data:`BUDGET` of the time spent stepping goes to lost probes. Idle, a serial probe loses a fraction of a
@@ -105,6 +105,7 @@ class ThreadChoice:
         self._last: bool | None = None  # the way of the latest step
         self._probe = math.inf  # the fastest timed step of the probe under way (s)
         self._spent = 0.0  # the time of the steps of the probe under way (s)
+        self._start_spent = [0.0, 0.0]  # the time of the start's steps (s): on the calling thread, on the threads
 
     def next(self) -> bool:
         """Whether the next step runs on the threads."""
@@ -117,7 +118,9 @@ class ThreadChoice:
         """Takes the time of a step that ran on the threads or not."""
         follows, self._last = self._last == threaded, threaded
         start = self.steps <= 2 * self.PROBE_STEPS  # a probe of each way
-        if not start and threaded != self.threaded:  # a step of a probe: what it costs
+        if start:  # a step of the start's probe of each way
+            self._start_spent[threaded] += seconds
+        elif threaded != self.threaded:  # a step of a probe: what it costs
             self._spent += seconds
         if not follows:  # the first step of a way
             return
@@ -129,9 +132,9 @@ class ThreadChoice:
                 return
             self.seconds[threaded], self._probe, probe_ends = self._probe, math.inf, True
             if start:
-                if threaded:  # both tried: the losing way's time is a lost probe's (one step of it)
+                if threaded:  # both tried: the losing way's steps are a lost probe's
                     self.threaded = self.seconds[True] < self.seconds[False]
-                    self._schedule(self.seconds[not self.threaded], 1)
+                    self._schedule(self._start_spent[not self.threaded], self.PROBE_STEPS)
                 return
         else:
             average = self.seconds[threaded]
@@ -145,8 +148,8 @@ class ThreadChoice:
 
     def _schedule(self, spent: float, taken: int) -> None:
         """Sets the next probe after a probe of ``taken`` steps that took ``spent`` seconds in all lost (or after the
-        start, whose losing way is such a probe), or after a change of way (``taken`` 0): enough steps later that the
-        probe's cost, beyond as many steps of the way in use, is :data:`BUDGET` of the time between."""
+        start, whose losing way's steps are such a probe), or after a change of way (``taken`` 0): enough steps later
+        that the probe's cost, beyond as many steps of the way in use, is :data:`BUDGET` of the time between."""
         step = self.seconds[self.threaded]
         cost = spent - taken * step
         self.next_probe = self.steps + min(
