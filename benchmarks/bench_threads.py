@@ -71,7 +71,7 @@ def pairs(task: str, busy: bool, count: int, seconds: float) -> list[tuple[dict,
 
 def main() -> None:
     args = arguments(__doc__)
-    count, seconds = (2, 0.3) if args.quick else (7, 1.0)
+    count, seconds = (2, 0.3) if args.quick else (15, 1.0)
     sample("upright", False, 0.1)  # compiles what is not in the cache yet
     rows = []
     for busy in (False, True):
