@@ -324,7 +324,7 @@ def test_thread_choice_times_a_probe_by_its_fastest_step():
         choice.record(threaded, 14e-3 if held_up else (0.6e-3 if threaded else 1e-3))
         ways.append(threaded)
     assert not ways[2 * ThreadChoice.PROBE_STEPS]
-    # The start's loss (its three threaded steps, 26.6 ms beyond three serial ones) puts the first probe 1330 steps
+    # The start's loss (its three threaded steps, 25.6 ms beyond three serial ones) puts the first probe 1280 steps
     # later (ThreadChoice.BUDGET); it finds the threads.
     assert ways[-500:].count(True) >= 0.95 * 500
 
