@@ -25,7 +25,7 @@ HEAVY = {"numpy", "gymnasium", "numba", "torch", "stable_baselines3"}
 
 
 def run(*args: str, timeout: float = 120, **kwargs) -> tuple[subprocess.CompletedProcess, set[str]]:
-    """``python train.py *args``; returns the process, its stderr without the import log, and the modules it imported
+    """``python train.py *args``; returns the process (its stderr without the import log) and the modules it imported
     (``python -X importtime`` writes a line to stderr for each)."""
     process = subprocess.run(
         [sys.executable, "-X", "importtime", "train.py", *args],
