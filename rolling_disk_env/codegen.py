@@ -18,8 +18,9 @@ The files are plain Python on floats, readable next to the paper, and what numba
   its derivative and diagnostics (energy, normal force, slip velocity) under a given or the kinetic friction.
 * ``_generated/<task>.py``, one per task of :data:`rolling_disk_env.tasks.TASKS`: for each integrator, the fused step
   of a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
-  (the action's torques; integration and domain check; contact checks, the task's termination, reward terms, success
-  and observation: the per-disk body :data:`FINISH_TEMPLATE` written out in it), with its callers for one share and for
+  (the action's torques; integration and domain check; contact checks and the task's termination,
+  :data:`CHECKS_TEMPLATE`; reward terms, success and observation, :data:`OUTPUTS_LOOP`), with its callers for one
+  share and for
   several on threads, and the reset, written from :data:`STEP_TEMPLATE` and :data:`RESET_TEMPLATE`.
   Each records a hash of its task module's source, so that the engine refuses steps generated from an older task.
 """
@@ -434,7 +435,8 @@ _SLIDING_COMPOSED = '''
 @inline_kernel
 def sliding_derivative(x, tau_spin, tau_steer, mu, m, g, r):
     """dx/dt under kinetic Coulomb friction of coefficient mu (none at zero slip)."""
-    f1, f2 = kinetic_friction(x, mu, r)
+    v1, v2 = slip_velocity(x, r)
+    f1, f2 = kinetic_friction(v1, v2, mu)
     return friction_derivative(x, tau_spin, tau_steer, f1, f2, m, g, r)
 
 
@@ -442,19 +444,24 @@ def sliding_derivative(x, tau_spin, tau_steer, mu, m, g, r):
 def sliding_diagnostics(x, tau_spin, tau_steer, mu, m, g, r):
     """(energy, normal_force, F1, F2, v1, v2) under kinetic Coulomb friction of coefficient mu: J, the vertical and
     the horizontal ground reactions on the disk (N), and the slip velocity (m/s)."""
-    f1, f2 = kinetic_friction(x, mu, r)
+    v1, v2 = slip_velocity(x, r)
+    f1, f2 = kinetic_friction(v1, v2, mu)
     energy, normal, v1, v2 = friction_diagnostics(x, tau_spin, tau_steer, f1, f2, m, g, r)
     return energy, normal, normal*f1, normal*f2, v1, v2
 '''
 
 
-def _sliding_source(name: str, arguments: tuple[str, ...], outputs: list[sp.Expr], doc: str) -> str:
+def _sliding_source(
+    name: str, arguments: tuple[str, ...], outputs: list[sp.Expr], doc: str, given: tuple[str, ...] = ()
+) -> str:
     """One function of the sliding model: unpacks the 10-state, evaluates ``outputs`` (in sin and cos of theta and
-    psi, after common-subexpression elimination), returns them as a tuple."""
+    psi, after common-subexpression elimination), returns them as a tuple; ``given`` are lines that name more of
+    the symbols the outputs use, from the arguments."""
     replacements, reduced = sp.cse([_in_sin_cos(expr) for expr in outputs], optimizations="basic")
     used = set().union(*(e.free_symbols for e in reduced), *(e.free_symbols for _, e in replacements))
     body = [
         f"{', '.join(map(str, d.sliding_state))} = x",
+        *given,
         *_trig_lines(used),
         *(f"{symbol} = {_PRINTER.doprint(expr)}" for symbol, expr in replacements),
         f"return ({', '.join(_PRINTER.doprint(expr) for expr in reduced)},)",
@@ -475,11 +482,11 @@ def generate_sliding() -> str:
     kinetic = "\n".join(
         [
             "@inline_kernel",
-            "def kinetic_friction(x, mu, r):",
+            "def kinetic_friction(v1, v2, mu):",
             '    """(f1, f2) = -mu v / |v|, Coulomb\'s kinetic friction per unit normal force, opposing the slip',
-            "    v; zero at zero slip, where the kinetic law gives no direction (there the Coulomb hybrid rolls, or",
-            '    starts sliding with the friction the rolling contact needs: engine.contact_phase)."""',
-            "    v1, v2 = slip_velocity(x, r)",
+            "    v = (v1, v2) (m/s); zero at zero slip, where the kinetic law gives no direction (there the",
+            "    Coulomb hybrid rolls, or starts sliding with the friction the rolling contact needs:",
+            '    engine.contact_phase)."""',
             f"    slip_speed = {speed}",
             f"    return ({law}) if slip_speed > 0.0 else (0.0, 0.0)",
             "",
@@ -501,6 +508,22 @@ def generate_sliding() -> str:
             "\n    force by virtual power, solved with the normal force N.",
         ),
         _sliding_source(
+            "slip_acceleration",
+            ("x", "dx", "r"),
+            list(sliding.slip_acceleration),
+            "(a1, a2): the slip velocity's rate of change dv/dt (m/s^2) of a disk in state x moving as dx = dx/dt.",
+            (f"{', '.join(['_'] * 5 + [str(a) for a in d.ddq])} = dx",),
+        ),
+        _sliding_source(
+            "stick",
+            ("x", "r"),
+            [*d.q, *sliding.stick_velocities],
+            "The 10-state just after the contact impulse that zeroes the slip (sticking): the impulse P = -W^-1 v at"
+            "\n    the contact point, W = A M^-1 A^T, changes the velocities by M^-1 A^T P and the kinetic energy by"
+            "\n    v . P / 2 <= 0 (M the kinetic energy's mass matrix, A the slip's, v = A dq the slip).",
+            ("v1, v2 = slip_velocity(x, r)",),
+        ),
+        _sliding_source(
             "friction_diagnostics",
             model,
             [sp.simplify(sliding.energy), sliding.normal_force, *sliding.slip_velocity],
@@ -511,28 +534,19 @@ def generate_sliding() -> str:
     return _SLIDING_HEADER + "\n" + _MODEL_IMPORTS + "\n\n" + "\n\n".join(functions) + _SLIDING_COMPOSED
 
 
-FINISH_TEMPLATE = """\
-        # The disk at the end of the period, in state x with the integration's code: contact forces and checks,
-        # the task's termination, reward terms, success and observation, into its column of info and flags.
+CHECKS_TEMPLATE = """\
+        # The disk at the end of the period, in state x with the integration's code: its contact forces and checks
+        # and the task's termination, into its column of info.
         contact = {contact}
         goal = {goal}
         code = {contact_status} if code == RUNNING else code
         code = task.termination(x, goal, settings) if code == RUNNING else code
-        steps[k, i] += 1
-{report}{terms_loop}
-        terms = task.reward_terms(x, trig, {velocity}, code, lanes[EFFORT, k, i], goal, settings)
-{terms}
-        info[REWARD, k, i] = {reward}
-        observation = task.observe(x, trig, goal, settings)
-{observe}{tracking}{sliding_report}
-        flags[TERMINATED, k, i] = code != RUNNING
-        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
-        flags[SUCCESS, k, i] = {success}"""
-"""The end of a control period, for disk i of one task: the loop body of the outputs (the fields in braces are filled in
-per task), in one loop (the contacts' step) or, with :data:`TERMS_LOOP`, two. Written out in the loop, not called:
-numba counts references to the arrays passed to a function, and those calls keep a loop from vectorizing."""
+{report}"""
+"""The end of a control period, for disk i of one task: the body of the loop that checks the contact and the
+termination (the fields in braces are filled in per task and contact). Written out in the loop, not called: numba
+counts references to the arrays passed to a function, and those calls keep a loop from vectorizing."""
 
-TERMS_LOOP = """
+OUTPUTS_LOOP = """
     # The reward terms, the observation and the flags in a loop of their own: fewer live values in each loop
     # (`goto`'s step compiled for AVX2, N = 4096, one thread: 42.0 ns a disk against 44.0 in one loop).
     for i in range(lanes.shape[2]):
@@ -540,15 +554,23 @@ TERMS_LOOP = """
         x = {state}
         trig = {angles}
         goal = {goal}
-        code = codes[k, i]"""
-"""Between the contact forces and termination of :data:`FINISH_TEMPLATE` and the rest, in the rolling steps: the end
-of the loop, and the next loop's disk."""
+        code = codes[k, i]
+        steps[k, i] += 1
+        terms = task.reward_terms(x, trig, {velocity}, code, lanes[EFFORT, k, i], goal, settings)
+{terms}
+        info[REWARD, k, i] = {reward}
+        observation = task.observe(x, trig, goal, settings)
+{observe}{tracking}
+        flags[TERMINATED, k, i] = code != RUNNING
+        flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
+        flags[SUCCESS, k, i] = {success}"""
+"""The last loop of a step, after :data:`CHECKS_TEMPLATE`'s: each disk's reward terms, observation, success and
+flags, from the states and codes the loops before stored."""
 
-HANDOVER = {
-    "rolling": """
+HANDOVER = """
 {store_state}
         codes[k, i] = code
-    # The outputs, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
+    # The checks, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
     # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
@@ -556,15 +578,65 @@ HANDOVER = {
         x = {state}
         code = codes[k, i]
 {store_angles}
-""",
-    "contact": """
+"""
+"""Between the rolling integrators' loop, which stores each disk's state and code (in ``codes``, which the checks
+overwrite), and :data:`CHECKS_TEMPLATE`."""
+
+CONTACT_TEMPLATE = """    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
+    dt = period / substeps
+    # Every disk rolls first, in loops that vectorize: the substeps of the rolling model, each disk marked (lanes
+    # row SLIDES) where it slides, or its contact needs more friction than mu at the start of a substep (or the end
+    # of the last: below, with the contact's report). The disks marked then go through the period again from its
+    # start, one by one, switching modes (engine.advance_contact). A disk that rolls on gets the same arithmetic
+    # either way.
+    engine.remember(lanes, k)
+    for substep in range(substeps):
+        for i in range(lanes.shape[2]):
+            tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+            m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+            x = {substep_state}
+            trig = {substep_angles}
+            marked = engine.marked(lanes[SLIDES, k, i], x, tau_spin, tau_steer, friction, coulomb, m, g, r)
+            lanes[SLIDES, k, i] = marked
+            x = kernels.state_rk4_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
+{substep_store}
+{substep_store_angles}
+    for i in range(lanes.shape[2]):
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        x = {state}
+        trig = {angles}
+        code = RUNNING
+{rolling_checks}
+        held = engine.holds(lanes[SLIDES, k, i], x, contact, friction, coulomb)
+        velocity = engine.centre_velocity(x, trig, m, g, r)
+        kept = (lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i])  # read either way: no branch
+        dc1, dc2 = (velocity[0] if held else kept[0]), (velocity[1] if held else kept[1])
+        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = dc1, dc2
+        lanes[SLIDES, k, i] = 0.0 if held else 1.0
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = dc1, dc2
+        info[CONTACT_ROWS + 2, k, i] = info[CONTACT_ROWS + 3, k, i] = info[CONTACT_ROWS + 4, k, i] = 0.0
+    # The disks marked: the period again, from its start, under the hybrid (a scalar loop: the modes branch).
+    for i in range(lanes.shape[2]):
+        if lanes[SLIDES, k, i] == 0.0:
+            continue
+        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
+        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        torques, disk = (tau_spin, tau_steer), (m, g, r)
+        state = {period_start}
+        state, code, report = engine.advance_contact(state, period, substeps, torques, friction, coulomb, disk)
+        x = engine.rolling_part(state)
+        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
 {store_state}
-        trig = kernels.angles(x)
-""",
-}
-"""Between the integration and :data:`FINISH_TEMPLATE`: the rolling integrators store each disk's state and code
-(in ``codes``, which the outputs overwrite) and end their loop, and a second loop computes
-the outputs; the contacts' loop (scalar: the modes branch) goes on into the outputs with the 10-state it holds."""
+{store_angles}
+{hybrid_checks}
+        lanes[SLIDES, k, i] = contact[7]
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
+        info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
+        info[CONTACT_ROWS + 4, k, i] = contact[7]"""
+"""The integration and the checks of a step under the ``"sliding"`` and ``"coulomb"`` contacts (RK4 substeps):
+:data:`CHECKS_TEMPLATE` twice, with the rolling model's fields (``{rolling_checks}``) and the hybrid's
+(``{hybrid_checks}``). Under ``"sliding"`` every disk is marked."""
 
 STEP_TEMPLATE = """
 
@@ -587,7 +659,7 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
-{advance}{handover}{finish}{track}
+{integrate}{outputs}{track}
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -642,13 +714,17 @@ def reset_share(k, resets, batch, setup, out):
     \"\"\"Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants (those
     randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all
     from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
-    ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows; a row of
-    ``given`` (8 floats; NaN: none) replaces the initial state. ``resets`` holds the arrays of
-    :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i of share k at ``k * columns +
-    i``); ``batch``, ``setup`` and ``out`` are split into shares as :func:`step_rk4_share` takes them.\"\"\"
+    ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
+    the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
+    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state. Under
+    the ``"sliding"`` and ``"coulomb"`` contacts, the centre's velocity (NaN: from the rolling constraint) and the
+    hybrid's report at zero torque. ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a
+    row or an entry per disk, disk i of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split
+    into shares as :func:`step_rk4_share` takes them.\"\"\"
     mask, rngs, uniforms, given = resets
     {unpack}
     options = {settings}
+    friction, hybrid, coulomb = config[FRICTION], config[CONTACT] != ROLLING, config[CONTACT] == COULOMB
     first = k * lanes.shape[2]
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
@@ -664,12 +740,11 @@ def reset_share(k, resets, batch, setup, out):
             if disk_ranges[j, 2]:
                 lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
                 drawn += 1
-        values = np.empty(ranges.shape[0])
         for j in range(ranges.shape[0]):
-            values[j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
+            uniforms[d, drawn + j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
         disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])
-        goal, x = task.start(values, disk, options)
-        if not np.isnan(given[d, 0]):
+        goal, x = task.start(uniforms[d, drawn:], disk, options)
+        if not math.isnan(given[d, 0]):
             x = {given}
         for j in range(len(goal)):
             goals[j, k, i] = goal[j]
@@ -691,6 +766,14 @@ def reset_share(k, resets, batch, setup, out):
         flags[TERMINATED, k, i] = False
         flags[TRUNCATED, k, i] = False
         flags[SUCCESS, k, i] = {success_at_start}
+        if hybrid:
+            state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
+            lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
+            lanes[SLIDES, k, i] = contact[7]
+{contact_report}
+            info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
+            info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
+            info[CONTACT_ROWS + 4, k, i] = contact[7]
 """
 """Starting episodes of one task."""
 
@@ -725,15 +808,6 @@ _ADVANCE = {
         new = kernels.state_{method}_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
         kept = {kept}
         x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)""",
-    "contact": """    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[COULOMB] > 0.0
-    for i in range(lanes.shape[2]):
-        tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
-        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
-        state = {sliding_state}
-        torques, disk = (tau_spin, tau_steer), (m, g, r)
-        state, code = engine.advance_contact(state, period, substeps, torques, friction, coulomb, disk)
-        x = engine.rolling_part(state)
-        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]""",
 }
 _SUCCESS = {
     "survive": ("code == RUNNING", "True"),
@@ -765,6 +839,7 @@ def generate_steps(task) -> str:
         "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8, "k, i"),
         "{store_angles}": _store_angles(8),
         "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8, "k, i") + "\n        codes[k, i] = code",
+        "{contact_report}": _stores("info", _REPORTED, _items("contact", 5), 12, "k, i"),
     }
     step_fields = {
         **fields,
@@ -772,12 +847,26 @@ def generate_steps(task) -> str:
         "{state_substep}": _row_tuple("lanes", 8, column="k, i", indent=16),
         "{kept}": _row_tuple("lanes", 8, column="k, i", first="PREVIOUS + "),
         "{angles}": _row_tuple("lanes", 4, column="k, i", first="ANGLES + "),
+        "{substep_state}": _row_tuple("lanes", 8, column="k, i", indent=12),
+        "{substep_angles}": _row_tuple("lanes", 4, column="k, i", first="ANGLES + ", indent=12),
+        "{substep_store}": _stores("lanes", _STATE_ROWS, _items("x", 8), 12, "k, i"),
+        "{substep_store_angles}": _store_angles(12),
         "{goal}": _row_tuple("goals", len(task.goal_names), column="k, i"),
+        "{store_substep}": _stores("lanes", _STATE_ROWS, _items("x", 8), 16, "k, i"),
+        "{store_angles_substep}": _store_angles(16),
+        "{period_start}": _row_tuple("lanes", 10, column="k, i", rows=_PERIOD_START_ROWS),
     }
-    finish = _fill(
-        FINISH_TEMPLATE,
+    rolling_checks = {
+        "{contact}": "engine.contact(x, tau_spin, tau_steer, m, g, r)",
+        "{contact_status}": "engine.contact_status(contact[3], contact[4], friction)",
+    }
+    hybrid_checks = {  # the 10-state is `state`, its 8 rolling components `x`
+        "{contact}": "report",
+        "{contact_status}": "(LIFTED_OFF if not contact[3] > 0.0 else RUNNING)",
+    }
+    outputs = _fill(
+        OUTPUTS_LOOP,
         {
-            **step_fields,
             "{terms}": _stores("info", [f"TERMS + {j}" for j in range(terms)], _items("terms", terms), 8, "k, i"),
             "{reward}": " + ".join(f"weights[{j}] * terms[{j}]" for j in range(terms)),
             "{observe}": "\n".join(
@@ -790,71 +879,49 @@ def generate_steps(task) -> str:
             "{success}": success,
         },
     )
-    track = "\n    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])" if rule == "track" else ""
-    rolling = {
-        "{contact}": "engine.contact(x, tau_spin, tau_steer, m, g, r)",
-        "{contact_status}": "engine.contact_status(contact[3], contact[4], friction)",
-        "{velocity}": "engine.centre_velocity(x, trig, m, g, r)",
-        "{sliding_report}": "",
-    }
-    hybrid = {  # the "sliding" and "coulomb" contacts: the 10-state is `state`, its 8 rolling components `x`
-        "{contact}": "engine.hybrid_contact(state, torques, friction, coulomb, disk)",
-        "{contact_status}": "(LIFTED_OFF if not contact[3] > 0.0 else RUNNING)",
-        "{velocity}": "(state[5], state[6])",
-        "{sliding_report}": "\n"
-        + _stores(
-            "info",
-            [f"CONTACT_ROWS + {j}" for j in range(5)],
-            ["state[5]", "state[6]", "contact[5]", "contact[6]", "contact[7]"],
-            8,
-            "k, i",
-        ),
-    }
-    steps = []
-    store_substep = _stores("lanes", _STATE_ROWS, _items("x", 8), 16, "k, i")
-    # The 10-state of the "sliding" and "coulomb" contacts: the state rows around the centre's velocity.
-    sliding_rows = ["0", "1", "2", "3", "4", "CENTRE_VELOCITY", "CENTRE_VELOCITY + 1", "5", "6", "7"]
-    sliding_state = (
-        "(\n"
-        + "".join(
-            " " * 12 + ", ".join(f"lanes[{row}, k, i]" for row in sliding_rows[j : j + 4]) + ",\n"
-            for j in range(0, 10, 4)
-        )
-        + " " * 8
-        + ")"
+    rolling_velocity = "engine.centre_velocity(x, trig, m, g, r)"
+    contact_velocity = "(lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i])"
+    contact = _fill(
+        CONTACT_TEMPLATE,
+        {
+            "{rolling_checks}": _fill(CHECKS_TEMPLATE, rolling_checks),
+            "{hybrid_checks}": _fill(CHECKS_TEMPLATE, hybrid_checks),
+        },
     )
-    for method, advance, contact_fields, described in [
-        *((t.name, _ADVANCE["dopri5" if t.error else "fixed"], rolling, f"with {t.name}") for t in TABLEAUS),
-        ("contact", _ADVANCE["contact"], hybrid, 'under the "sliding" or "coulomb" contact (RK4 steps)'),
+    track = "\n    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])" if rule == "track" else ""
+    steps = []
+    for method, integrate, velocity, described in [
+        *(
+            (
+                t.name,
+                _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks),
+                rolling_velocity,
+                f"with {t.name}",
+            )
+            for t in TABLEAUS
+        ),
+        ("contact", contact, contact_velocity, 'under the "sliding" or "coulomb" contact (RK4 steps)'),
     ]:
-        handover = HANDOVER["contact" if method == "contact" else "rolling"]
-        template = STEP_TEMPLATE.replace("{advance}", advance).replace("{handover}", handover)
-        split = "" if method == "contact" else TERMS_LOOP
-        template = template.replace("{finish}", _fill(finish.replace("{terms_loop}", split), contact_fields))
-        fields_here = {
-            **step_fields,
-            "{store_substep}": store_substep,
-            "{store_angles_substep}": _store_angles(16),
-            "{sliding_state}": sliding_state,
-            "{method}": method,
-            "{described}": described,
-        }
-        steps.append(_fill(template.replace("{track}", track), fields_here))
+        template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
+        template = template.replace("{velocity}", velocity).replace("{track}", track)
+        steps.append(_fill(template, {**step_fields, "{method}": method, "{described}": described}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
     )
     imports = "\n".join(
         [
+            "import math",
+            "",
             "import numpy as np",
             "",
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ANGLES, ATOL, CENTRE_VELOCITY, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM, LAMBDA1,",
-            "    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
-            "    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS, SUCCESS,",
-            "    SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,",
+            "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM,",
+            "    LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
+            "    REQUIRED_FRICTION, REWARD, ROLLING, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,",
+            "    SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
             f"import {module.__name__} as task",
@@ -874,6 +941,14 @@ def generate_steps(task) -> str:
 
 _STATE_ROWS = [str(j) for j in range(8)]
 """Rows of the state in a lanes array and an info block."""
+_PERIOD_START_ROWS = [
+    *(f"PREVIOUS + {j}" for j in range(5)),
+    "CENTRE_VELOCITY",
+    "CENTRE_VELOCITY + 1",
+    *(f"PREVIOUS + {j}" for j in range(5, 8)),
+]
+"""Rows of a lanes array holding the 10-state at the start of the control period under the ``"sliding"`` and
+``"coulomb"`` contacts: the rows PREVIOUS around the centre's velocity."""
 _REPORTED = ["ENERGY", "LAMBDA1", "LAMBDA2", "NORMAL_FORCE", "REQUIRED_FRICTION"]
 """Rows of an info block after the state, written from the contact values."""
 
@@ -883,11 +958,14 @@ def _items(name: str, size: int) -> list[str]:
     return [f"{name}[{j}]" for j in range(size)]
 
 
-def _row_tuple(array: str, size: int, column: str = "", first: str = "", indent: int = 8) -> str:
-    """``(array[0, column], array[1, column], ...)`` (from row ``first`` + 0), or ``(array[0], ...)`` (no
-    ``column``): a tuple of ``size`` floats, which numba keeps in registers; four items a line when long, for a
-    statement indented by ``indent``."""
-    items = [f"{array}[{first}{j}, {column}]" if column else f"{array}[{j}]" for j in range(size)]
+def _row_tuple(
+    array: str, size: int, column: str = "", first: str = "", indent: int = 8, rows: list[str] | None = None
+) -> str:
+    """``(array[0, column], array[1, column], ...)`` (from row ``first`` + 0, or the ``rows`` given), or
+    ``(array[0], ...)`` (no ``column``): a tuple of ``size`` floats, which numba keeps in registers; four items a line
+    when long, for a statement indented by ``indent``."""
+    rows = rows or [f"{first}{j}" for j in range(size)]
+    items = [f"{array}[{row}, {column}]" if column else f"{array}[{row}]" for row in rows]
     one_line = f"({', '.join(items)}{',' if size == 1 else ''})"
     if len(one_line) <= 110:
         return one_line

@@ -12,6 +12,10 @@ LEAN_MARGIN = 0.01
 LEAN_LIMIT = math.pi / 2 - LEAN_MARGIN
 """rad. The model's domain is |theta| < LEAN_LIMIT."""
 
+CONTACTS = ("rolling", "sliding", "coulomb")
+"""The contact models (``contact=``; their index is the engine's code for them): the paper's rolling without
+slipping; the frozen lake's sliding, with kinetic Coulomb friction of ``friction_coefficient`` (default 0); their
+hybrid by Coulomb's law."""
 ENGINE_METHODS = ("euler", "symplectic_euler", "rk4", "dopri5")
 """The methods the compiled engine integrates (their index is the engine's code for them): fixed steps, then the
 error-controlled Dormand-Prince 5(4)."""
@@ -20,3 +24,6 @@ ZERO_SLIP = 1e-12
 """A slip speed below ``ZERO_SLIP * sqrt(g r)`` counts as zero: the round-off of a rolling state's slip."""
 EVENT_TIME_TOLERANCE = 1e-13
 """s. How closely the root-finding brackets a switching event's time (far below the integrators' own error)."""
+STOP_SLIP = 1e-10
+"""A slide stops where its slip speed falls below ``STOP_SLIP * sqrt(g r)`` (3.1e-10 m/s for the paper's disk): the
+contact impulse that then zeroes the slip changes the energy by ``m |v|^2 / 2`` at most, some 1e-19 J."""

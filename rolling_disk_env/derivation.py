@@ -267,6 +267,12 @@ class SlidingDerivation:
         kinetic_friction: Coulomb's kinetic law ``f = -mu v / |v|`` in the symbols ``v1, v2`` (:data:`slip`),
             ``mu`` and ``slip_speed`` (``|v| > 0``); undefined at ``v = 0``.
         energy: kinetic plus potential energy ``E_K + E_p`` with the centre's horizontal velocity free (J).
+        slip_acceleration: ``dv/dt = d(A(q) dq)/dt``, in the state and the symbols ``dd<name>`` of its time derivative
+            (:data:`ddq` for the accelerations; m/s^2).
+        stick_velocities: ``dq + M^-1 A^T P``, the velocities just after the contact impulse ``P = -W^-1 v``,
+            ``W = A M^-1 A^T``, that zeroes the slip ``v`` (symbols ``v1, v2``): ``M`` the kinetic energy's mass
+            matrix ``d^2 E_K / d dq^2``. The impulse acts at the contact point; it changes the kinetic energy by
+            ``v . P / 2 = -v^T W^-1 v / 2 <= 0``.
     """
 
     slip_velocity: sp.Matrix
@@ -278,6 +284,8 @@ class SlidingDerivation:
     normal_force: sp.Expr
     kinetic_friction: sp.Matrix
     energy: sp.Expr
+    slip_acceleration: sp.Matrix
+    stick_velocities: sp.Matrix
 
 
 @functools.cache
@@ -312,6 +320,17 @@ def derive_sliding() -> SlidingDerivation:
     # Coulomb's kinetic friction: the contact force opposes the slip, with magnitude mu N.
     kinetic_friction = -mu * slip / slip_speed
 
+    # The slip's rate of change, the derivative of A(q) dq along the motion: where a slide will stop.
+    slip_acceleration = slip_velocity.jacobian([*q, *dq]) * sp.Matrix([*dq, *ddq])
+
+    # Sticking: the impulse P at the contact point that zeroes the slip, M (dq+ - dq) = A^T P with A dq+ = 0 (the
+    # normal impulse keeps c3 = r cos(theta) and does no work: it is not in the reduced coordinates q).
+    kinetic_mass = sp.hessian(rolling.kinetic_energy, dq).applyfunc(sp.simplify)
+    response = kinetic_mass.inv().applyfunc(sp.simplify) * rolling.constraint_matrix.T
+    delassus = (rolling.constraint_matrix * response).applyfunc(sp.simplify)
+    impulse = -delassus.inv().applyfunc(sp.simplify) * slip
+    stick_velocities = dq + (response * impulse).applyfunc(sp.simplify)
+
     return SlidingDerivation(
         slip_velocity=slip_velocity,
         friction_forces=friction_forces,
@@ -322,4 +341,6 @@ def derive_sliding() -> SlidingDerivation:
         normal_force=solution[5],
         kinetic_friction=kinetic_friction,
         energy=rolling.kinetic_energy + rolling.potential_energy,
+        slip_acceleration=slip_acceleration,
+        stick_velocities=stick_velocities,
     )

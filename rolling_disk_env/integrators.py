@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rolling_disk_env.constants import ENGINE_METHODS, EVENT_TIME_TOLERANCE, LEAN_LIMIT, ZERO_SLIP
+from rolling_disk_env.constants import CONTACTS, ENGINE_METHODS, EVENT_TIME_TOLERANCE, LEAN_LIMIT, STOP_SLIP, ZERO_SLIP
 from rolling_disk_env.dynamics import (
     FULL_MODEL,
     LEAN_MODEL,
@@ -48,9 +48,6 @@ METHODS = (*ENGINE_METHODS, "dop853")
 """The ``method`` names :func:`simulate` takes: the engine's, then scipy's ``"dop853"`` (the accuracy reference)."""
 EVALUATIONS_PER_STEP = {"euler": 1, "symplectic_euler": 2, "rk4": 4}
 """Derivative evaluations per step of the fixed-step methods (the cost unit of the benchmarks)."""
-CONTACTS = ("rolling", "sliding", "coulomb")
-"""The contact models: the paper's rolling without slipping (the default), the frozen lake with kinetic friction, and
-Coulomb's hybrid of the two."""
 CONTACT_METHODS = ("rk4", "dopri5", "dop853")
 """The methods of the ``"sliding"`` and ``"coulomb"`` contacts. ``"rk4"`` takes fixed steps of dt and locates a
 switching event by root-finding on the length of the step that crosses it. ``"dopri5"`` and ``"dop853"`` are scipy's
@@ -305,15 +302,20 @@ class SwitchEvent(NamedTuple):
     Attributes:
         time: s.
         kind: ``"slip"``, the contact needs more friction than mu and the disk starts sliding (at the start too, for
-            a rolling start that needs more); ``"stick"``, the slip
-            stopped where friction can hold it and the disk rolls again; ``"reslip"``, the slip stopped where friction
-            cannot hold it and the disk slides on, in a new direction.
-        state: the 10-state there (with zero slip after a ``"stick"`` or ``"reslip"``).
+            a rolling start that needs more); ``"stick"``, the slip stopped where friction can hold it and the disk
+            rolls again; ``"reslip"``, the slip stopped where friction cannot hold it and the disk slides on, in a
+            new direction.
+        state: the 10-state there (with zero slip after a ``"stick"`` or ``"reslip"``: after the contact impulse).
+        slip: at a stop, the slip speed where the slide was found to end, just before the contact impulse zeroed it
+            (m/s; 0 at a slip).
+        energy_change: the energy the stop's contact impulse changed (J; never positive, 0 at a slip).
     """
 
     time: float
     kind: str
     state: np.ndarray
+    slip: float = 0.0
+    energy_change: float = 0.0
 
 
 class ContactTrajectory(NamedTuple):
@@ -363,10 +365,18 @@ def simulate_contact(
     * it *slips* where ``|lambda|`` reaches ``mu N`` (an event located on ``mu N - |lambda| = 0``), starting with
       zero slip and the friction force ``mu N lambda / |lambda|``, along the force the contact needed (at that
       instant the sliding and the rolling accelerations agree), then slides with kinetic friction;
-    * where the slip speed reaches zero (an event located on ``v . v0 = 0``, ``v0`` the slip at the start of the
-      integration step, the friction of the approach continued through the stop so that the step stays smooth) it
-      *sticks* and rolls again if ``|lambda| <= mu N`` there, or slides on (``"reslip"``), starting as at a slip.
-      The state is projected onto the rolling constraint there (removing a slip within the integrator's error).
+    * its slide ends where the slip speed reaches zero: ``"rk4"`` closes in on the stop with steps of at most half
+      the time the slip's rate of slowing leaves, ``"dopri5"`` and ``"dop853"`` locate ``v . v0 = 0`` on their dense
+      output (``v0`` the slip at the start of the step, again from there while the slip left is above the tolerance),
+      until the slip speed is below ``rolling_disk_env.constants.STOP_SLIP sqrt(g r)``. There the contact impulse
+      that zeroes the slip puts the disk on the rolling constraint: it changes the centre's velocity and the angular
+      rates together and can only take energy away (half the impulse times the slip, some 1e-19 J after a stop
+      located so). Then the disk *sticks* and rolls again if ``|lambda| <= mu N``, or slides on (``"reslip"``),
+      starting as at a slip.
+
+    The switching (the mode at zero slip, the onset's friction, the impulse) is the compiled engine's
+    (:func:`rolling_disk_env.engine.contact_phase`, ``sliding.stick``); ``"rk4"`` runs the engine's own steps
+    (:func:`rolling_disk_env.engine.contact_run`), those of the env's ``contact="coulomb"``.
 
     Torques: ``"rk4"`` samples a callable torque at the start of each output interval and holds it over it;
     ``"dopri5"`` and ``"dop853"`` call it at every evaluation; it receives the 10-state. A batch takes constant
@@ -419,8 +429,11 @@ def simulate_contact(
     states = np.empty((len(times), *rows.shape))
     events = []
     for i, row in enumerate(rows):
-        run = _ContactRun(contact, method, mu, torque if torques is None else torques[i], disks[i], rtol, atol, times)
-        states[:, i], disk_events = run.run(row)
+        run = _ContactRun(contact, mu, torque if torques is None else torques[i], disks[i], times)
+        if method == "rk4":
+            states[:, i], disk_events = run.run_rk4(row)
+        else:
+            states[:, i], disk_events = run.run_adaptive(row, method, rtol, atol)
         events.append(disk_events)
     return ContactTrajectory(
         times, states.reshape(len(times), *x0.shape), events[0] if batch is None else tuple(events)
@@ -439,20 +452,11 @@ def _sliding_start(state0, params: DiskParams | None) -> np.ndarray:
     return check_states(state0, SLIDING_MODEL, "state0")
 
 
-def _rk4(rhs, t: float, y: np.ndarray, h: float) -> np.ndarray:
-    """One classical Runge-Kutta step of ``h`` seconds."""
-    k1 = rhs(t, y)
-    k2 = rhs(t + h / 2, y + h / 2 * k1)
-    k3 = rhs(t + h / 2, y + h / 2 * k2)
-    k4 = rhs(t + h, y + h * k3)
-    return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-
-
 @dataclass
 class _Phase:
     """What a disk integrates between two switching events: the rolling model on 8-states, or the sliding model on
     10-states with the friction at zero slip (``onset``, per unit normal force) and the slip direction at the start
-    of the current step (``reference``, zeros for none)."""
+    of the current step (``reference``, zeros for none): the engine's ``law``."""
 
     rolling: bool
     onset: np.ndarray
@@ -462,19 +466,81 @@ class _Phase:
 class _ContactRun:
     """One disk through a ``"sliding"`` or ``"coulomb"`` simulation: its phases, switching events and outputs."""
 
-    def __init__(self, contact: str, method: str, mu: float, torque, disk: np.ndarray, rtol, atol, times):
-        self.contact, self.method, self.mu, self.rtol, self.atol, self.times = contact, method, mu, rtol, atol, times
+    def __init__(self, contact: str, mu: float, torque, disk: np.ndarray, times: np.ndarray):
+        self.contact, self.mu, self.times = contact, mu, times
+        self.coulomb = contact == "coulomb"
         self.policy = torque if callable(torque) else None
         self.held = np.zeros(2) if self.policy else np.asarray(torque, dtype=np.float64)
-        self.per_evaluation = self.policy is not None and method != "rk4"
         self.disk = np.ascontiguousarray(disk)
+        self.constants = tuple(float(value) for value in disk)  # (m, g, r), as the engine's scalar kernels take them
         self.zero_slip = ZERO_SLIP * math.sqrt(disk[1] * disk[2])
+        self.stop_slip = STOP_SLIP * math.sqrt(disk[1] * disk[2])
         self.out = np.empty((len(times), SLIDING_MODEL.size))
         self.events: list[SwitchEvent] = []
         self.steps = 0
+        self.per_evaluation = False
         self._rows = (np.empty((1, 8)), np.empty((1, 2)), self.disk.reshape(1, 3), np.empty((1, 8)), np.empty((1, 5)))
 
-    # The models, for one disk.
+    def sample(self, t: float, x: np.ndarray) -> np.ndarray:
+        """The torque at ``t`` in the 10-state ``x`` (N m)."""
+        return self.held if self.policy is None else check_torques(self.policy(t, x.copy()), None)[0]
+
+    def fail(self, code: int, time: float, x: np.ndarray) -> OutOfDomainError:
+        """The error of an engine code that stopped the disk at ``time`` in ``x``."""
+        from rolling_disk_env import engine
+
+        if code == engine.LIFTED_OFF:
+            normal = engine.hybrid_contact(tuple(x), tuple(self.held), self.mu, self.coulomb, self.constants)[3]
+            return _lift_off(time, float(normal))
+        if code == engine.SUBSTEP_LIMIT:
+            return OutOfDomainError(
+                f"the contact switched more than {MAX_SWITCHES} times, or took more than "
+                f"{engine.MAX_PERIOD_SEGMENTS} steps in an interval, by t = {time:.6g} s (stick-slip chattering)",
+                time=time,
+            )
+        if not (np.all(np.isfinite(x)) and abs(x[3]) < LEAN_LIMIT):
+            return _domain_error(time, x[3] if math.isfinite(x[3]) else math.nan)
+        need = engine.contact(tuple(x[list(ROLLING_INDICES)]), *self.held, *self.constants)[4]
+        return OutOfDomainError(
+            f"at t = {time:.6g} s the slip is zero and friction holds the disk (it needs |lambda| / N = "
+            f"{need:.6g} <= friction_coefficient = {self.mu}): the kinetic law of contact='sliding' has no force "
+            "there; contact='coulomb' rolls on",
+            time=time,
+        )
+
+    def record(self, rows: np.ndarray) -> None:
+        """Takes the engine's event rows (``engine.EVENT_SIZE`` columns)."""
+        from rolling_disk_env import engine
+
+        for row in rows:
+            kind = ("", "slip", "stick", "reslip")[int(row[1])]
+            self.events.append(SwitchEvent(float(row[0]), kind, row[4:].copy(), float(row[2]), float(row[3])))
+        if len(self.events) > MAX_SWITCHES:
+            raise self.fail(engine.SUBSTEP_LIMIT, self.events[-1].time, self.events[-1].state)
+
+    def run_rk4(self, x0: np.ndarray) -> tuple[np.ndarray, tuple[SwitchEvent, ...]]:
+        """The engine's RK4 steps (:func:`rolling_disk_env.engine.contact_run`), one per output interval, a callable
+        torque sampled at the start of each."""
+        from rolling_disk_env import engine
+
+        events = np.empty((MAX_SWITCHES, engine.EVENT_SIZE))
+        rolled = True
+        spans = [(0, len(self.times))] if self.policy is None else [(k, k + 2) for k in range(len(self.times) - 1)]
+        x = x0
+        for first, stop in spans:
+            self.held = self.sample(self.times[first], x)
+            torques = np.tile(self.held, (stop - first - 1, 1))
+            count, code, time, switches, rolled = engine.contact_run(
+                tuple(x.tolist()), self.times[first:stop], torques, self.mu, self.coulomb, self.constants, rolled,
+                self.out[first:stop], events,
+            )  # fmt: skip
+            self.record(events[: min(switches, len(events))])
+            if code != engine.RUNNING:
+                raise self.fail(code, time, self.out[first + count])  # the state where it stopped
+            x = self.out[stop - 1]
+        return self.out, tuple(self.events)
+
+    # scipy's methods: the sliding and the rolling models, one disk.
     def _rolling(self, kernel, y: np.ndarray, u: np.ndarray, out: np.ndarray) -> np.ndarray:
         rows, torques, disks = self._rows[0], self._rows[1], self._rows[2]
         rows[0], torques[0] = y, u
@@ -482,22 +548,15 @@ class _ContactRun:
         return out[0]
 
     def to_sliding(self, y: np.ndarray) -> np.ndarray:
-        """The 10-state of a rolling 8-state: the centre's velocity from the constraint (torque-free)."""
+        """The 10-state of a rolling 8-state: the centre's velocity from the constraint."""
         from rolling_disk_env import engine
 
-        x = np.empty(SLIDING_MODEL.size)
-        x[list(ROLLING_INDICES)] = y
-        x[5:7] = self._rolling(engine.derivatives, y, np.zeros(2), self._rows[3])[:2]
-        return x
+        return np.array(engine.rolling_start(tuple(y), *self.constants))
 
     def torque(self, t: float, y: np.ndarray) -> np.ndarray:
         if not self.per_evaluation:
             return self.held
         return self.sample(t, y if y.size == SLIDING_MODEL.size else self.to_sliding(y))
-
-    def sample(self, t: float, x: np.ndarray) -> np.ndarray:
-        """The torque at ``t`` in the 10-state ``x`` (N m)."""
-        return self.held if self.policy is None else check_torques(self.policy(t, x.copy()), None)[0]
 
     def rolling_rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         from rolling_disk_env import engine
@@ -528,7 +587,6 @@ class _ContactRun:
         )
         return values[1], np.array(values[4:6])
 
-    # Events.
     def event_function(self, phase: _Phase, t: float, y: np.ndarray, check: bool = False) -> float | None:
         """The phase's switching function, positive until its event (None: no event possible in this step):
         ``mu N - |lambda|`` when rolling, ``v . reference`` when sliding. With ``check``, raises where the state
@@ -550,98 +608,106 @@ class _ContactRun:
             raise _lift_off(t, normal)
         return value
 
-    def set_reference(self, phase: _Phase, t: float, y: np.ndarray) -> None:
-        """Starts a sliding step at ``y``: the direction of its slip, where there is one, and mu > 0."""
-        if phase.rolling:
-            return
-        phase.reference = np.zeros(2)
-        _, slip = self.sliding_contact(phase, t, y)
-        speed = math.hypot(*slip)
-        if self.mu > 0 and speed > self.zero_slip:
-            phase.reference = slip / speed
+    def phase_at(self, t: float, x: np.ndarray) -> _Phase:
+        """The engine's mode of the 10-state ``x`` (:func:`rolling_disk_env.engine.contact_phase`)."""
+        from rolling_disk_env import engine
 
-    def at_rest(self, t: float, rolling_state: np.ndarray) -> tuple[_Phase, np.ndarray, str]:
-        """The phase of a disk with zero slip: it rolls (``"stick"``) if friction holds it, else slides with the
-        friction the rolling contact needs at its limit ``mu N`` (``"reslip"``)."""
-        x = self.to_sliding(rolling_state)
-        normal, force = self.rolling_contact(t, rolling_state)
-        if not normal > 0:
-            raise _lift_off(t, normal)
-        need = math.hypot(*force)
-        if need <= self.mu * normal and self.contact == "coulomb":
-            return _Phase(True, np.zeros(2), np.zeros(2)), rolling_state.copy(), "stick"
-        if need <= self.mu * normal and self.mu > 0:
-            raise OutOfDomainError(
-                f"at t = {t:.6g} s the slip is zero and friction holds the disk (it needs |lambda| / N = "
-                f"{need / normal:.6g} <= friction_coefficient = {self.mu}): the kinetic law of contact='sliding' has "
-                "no force there; contact='coulomb' rolls on",
-                time=t,
-            )
-        onset = self.mu * force / need if need > 0 else np.zeros(2)
-        return _Phase(False, onset, np.zeros(2)), x, "reslip"
+        u = tuple(self.torque(t, x))
+        code, rolling, law = engine.contact_phase(tuple(x), u, self.mu, self.coulomb, self.constants)
+        if code != engine.RUNNING:
+            raise self.fail(code, t, x)
+        return _Phase(rolling, np.array(law[1]), np.array(law[2]))
 
-    def run(self, x0: np.ndarray) -> tuple[np.ndarray, tuple[SwitchEvent, ...]]:
+    def run_adaptive(self, x0: np.ndarray, method: str, rtol: float, atol: float):
+        """scipy's RK45 (``"dopri5"``) or DOP853 between the events, outputs from its dense output, a callable torque
+        called at every evaluation."""
+
+        self.method, self.rtol, self.atol = method, rtol, atol
+        self.per_evaluation = self.policy is not None
         t, k = self.times[0], 1
         self.out[0] = x0
         self.held = self.sample(t, x0)
-        free = _Phase(False, np.zeros(2), np.zeros(2))
-        _, slip = self.sliding_contact(free, t, x0)
-        if (self.contact == "sliding" and self.mu == 0) or math.hypot(*slip) > self.zero_slip:
-            phase, y = free, x0.copy()
-        else:
-            phase, y, _ = self.at_rest(t, x0[list(ROLLING_INDICES)])
-            if not phase.rolling:  # a rolling start whose contact needs more friction than mu
-                self.events.append(SwitchEvent(t, "slip", y.copy()))
-        advance = self.advance_rk4 if self.method == "rk4" else self.advance_adaptive
-        while True:
-            t_event, y_event, k = advance(phase, t, y, k)
+        phase = self.phase_at(t, x0)
+        _, slip = self.sliding_contact(phase, t, x0)
+        if not phase.rolling and math.hypot(*slip) <= self.zero_slip and (self.coulomb or self.mu > 0):
+            self.events.append(SwitchEvent(t, "slip", x0.copy()))  # a rolling start that needs more than mu
+        y = x0[list(ROLLING_INDICES)] if phase.rolling else x0.copy()
+        while t is not None:
+            if not phase.rolling and self.mu > 0 and not phase.reference.any():  # a slide from zero slip
+                t, phase, y, k = self.near_zero_slip(phase, t, y, k)
+                continue
+            t_event, y_event, k = self.advance_adaptive(phase, t, y, k)
             if t_event is None:
-                return self.out, tuple(self.events)
-            if phase.rolling:  # the needed friction reached mu N: slip starts along the needed force
-                _, force = self.rolling_contact(t_event, y_event)
-                onset = self.mu * force / math.hypot(*force)
-                phase, y, kind = _Phase(False, onset, np.zeros(2)), self.to_sliding(y_event), "slip"
-            else:  # the slip stopped
-                phase, y, kind = self.at_rest(t_event, y_event[list(ROLLING_INDICES)])
+                break
             t = t_event
-            self.events.append(SwitchEvent(t, kind, y.copy() if y.size == SLIDING_MODEL.size else self.to_sliding(y)))
+            if phase.rolling:  # the needed friction reached mu N: slip starts along the needed force
+                _, force = self.rolling_contact(t, y_event)
+                onset = self.mu * force / math.hypot(*force)
+                phase, y = _Phase(False, onset, np.zeros(2)), self.to_sliding(y_event)
+                self.events.append(SwitchEvent(t, "slip", y.copy()))
+            else:  # near zero slip, or the slip turned back: its stop is near
+                t, phase, y, k = self.near_zero_slip(phase, t, y_event, k)
             if len(self.events) > MAX_SWITCHES:
                 raise OutOfDomainError(
                     f"the contact switched more than {MAX_SWITCHES} times by t = {t:.6g} s (stick-slip chattering)",
                     time=t,
                 )
+        return self.out, tuple(self.events)
+
+    def near_zero_slip(self, phase: _Phase, t: float, y: np.ndarray, k: int):
+        """A slide from ``(t, y)`` near zero slip, at its start or near its stop, by the engine's steps
+        (:func:`rolling_disk_env.engine.contact_segment`, the one implementation of a slide's start, its stop and its
+        impulse: near zero slip the slip's direction turns faster than scipy's steps follow), which write the outputs
+        they pass. Returns ``(t, phase, y, k)`` after an event, or after the first step of the engine that went to
+        the next output time unshortened (the slip had grown), or ``(None, None, None, k)`` at the end."""
+        from rolling_disk_env import engine
+
+        law = (self.mu, tuple(phase.onset), tuple(phase.reference), self.zero_slip)
+        x, rolling = tuple(y.tolist()), False
+        while k < len(self.times):
+            u = tuple(self.torque(t, np.array(x)))
+            left = self.times[k] - t
+            x, rolling, law, used, code, kind, slip, change = engine.contact_segment(
+                x, rolling, law, left, u, self.mu, self.coulomb, self.constants
+            )
+            state, phase = np.array(x), _Phase(rolling, np.array(law[1]), np.array(law[2]))
+            if used < left:
+                t += used
+            else:
+                t, self.out[k], k = self.times[k], state, k + 1
+            if not (np.all(np.isfinite(state)) and abs(state[3]) < LEAN_LIMIT):
+                raise _domain_error(t, state[3] if math.isfinite(state[3]) else math.nan)
+            if kind != engine.NO_EVENT:
+                if code != engine.RUNNING:
+                    raise self.fail(code, t, state)
+                self.events.append(SwitchEvent(t, ("", "slip", "stick", "reslip")[kind], state.copy(), slip, change))
+                return t, phase, (state[list(ROLLING_INDICES)] if rolling else state), k
+            if used >= left:  # a step that the slip's stop did not shorten: no stop near, back to scipy's steps
+                return t, phase, state, k
+            self.steps += 1
+            if self.steps > MAX_CONTACT_STEPS:
+                raise OutOfDomainError(f"{MAX_CONTACT_STEPS} steps did not reach t = {self.times[-1]:.6g} s", time=t)
+        return None, None, None, k
 
     def full(self, phase: _Phase, y: np.ndarray) -> np.ndarray:
         return self.to_sliding(y) if phase.rolling else y
 
-    def advance_rk4(self, phase: _Phase, t: float, y: np.ndarray, k: int):
-        """Fixed steps to the output times from ``(t, y)``: ``(t, y, k)`` at the phase's first event (k: the next
-        output to write), or ``(None, None, k)`` at the end. A step that crosses the event is repeated with the
-        length at which the switching function vanishes."""
-
-        def rhs(time, state):
-            return self.rolling_rhs(time, state) if phase.rolling else self.sliding_rhs(phase, time, state)
-
-        while k < len(self.times):
-            self.set_reference(phase, t, y)
-            before = self.event_function(phase, t, y)
-            h = self.times[k] - t
-            new = _rk4(rhs, t, y, h)
-            after = self.event_function(phase, t + h, new, check=True)
-            if before is not None and before > 0 >= after:
-                length = _root(lambda s, t=t, y=y: self.event_function(phase, t + s, _rk4(rhs, t, y, s)), 0.0, h)
-                return t + length, _rk4(rhs, t, y, length), k
-            t, y = self.times[k], new
-            self.out[k] = self.full(phase, y)
-            k += 1
-            if k < len(self.times):
-                self.held = self.sample(t, self.out[k - 1])
-        return None, None, k
+    def set_reference(self, phase: _Phase, t: float, y: np.ndarray) -> None:
+        """Starts a sliding step at ``y``: the direction of its slip, where there is one, and mu > 0."""
+        if phase.rolling:
+            return
+        _, slip = self.sliding_contact(phase, t, y)
+        speed = math.hypot(*slip)
+        phase.reference = slip / speed if self.mu > 0 and speed > self.zero_slip else np.zeros(2)
 
     def advance_adaptive(self, phase: _Phase, t: float, y: np.ndarray, k: int):
-        """scipy's RK45 or DOP853 from ``(t, y)``, outputs from its dense output: as :meth:`advance_rk4`, the event
-        located on the dense output of the step that crosses it."""
+        """scipy's RK45 or DOP853 from ``(t, y)``, outputs from its dense output: ``(t, y, k)`` at the phase's first
+        event (located on the dense output of the step that crosses it; k: the next output to write), or after a
+        sliding step that ends near zero slip, where friction turns the slip's direction in less than its length (then
+        :meth:`near_zero_slip` goes on), or ``(None, None, k)`` at the end."""
         from scipy.integrate import DOP853, RK45
+
+        from rolling_disk_env import engine
 
         def rhs(time, state):
             return self.rolling_rhs(time, state) if phase.rolling else self.sliding_rhs(phase, time, state)
@@ -664,6 +730,10 @@ class _ContactRun:
                 return time, dense(time), self.fill(phase, dense, time, k)
             k = self.fill(phase, dense, stepper.t, k)
             t, y = stepper.t, new
+            if not phase.rolling and self.mu > 0:
+                turn = engine.TURN * math.hypot(*self.sliding_contact(phase, t, y)[1]) / (5 * self.mu * self.disk[1])
+                if turn < stepper.step_size:
+                    return t, y, k
             self.set_reference(phase, t, y)
         return None, None, k
 

@@ -35,11 +35,10 @@ def slip_velocity(x, r):
 
 
 @inline_kernel
-def kinetic_friction(x, mu, r):
+def kinetic_friction(v1, v2, mu):
     """(f1, f2) = -mu v / |v|, Coulomb's kinetic friction per unit normal force, opposing the slip
-    v; zero at zero slip, where the kinetic law gives no direction (there the Coulomb hybrid rolls, or
-    starts sliding with the friction the rolling contact needs: engine.contact_phase)."""
-    v1, v2 = slip_velocity(x, r)
+    v = (v1, v2) (m/s); zero at zero slip, where the kinetic law gives no direction (there the Coulomb
+    hybrid rolls, or starts sliding with the friction the rolling contact needs: engine.contact_phase)."""
     slip_speed = sqrt(v1*v1 + v2*v2)
     return (-mu*v1/slip_speed, -mu*v2/slip_speed) if slip_speed > 0.0 else (0.0, 0.0)
 
@@ -80,6 +79,43 @@ def friction_derivative(x, tau_spin, tau_steer, f1, f2, m, g, r):
 
 
 @inline_kernel
+def slip_acceleration(x, dx, r):
+    """(a1, a2): the slip velocity's rate of change dv/dt (m/s^2) of a disk in state x moving as dx = dx/dt."""
+    c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi = x
+    _, _, _, _, _, ddc1, ddc2, ddphi, ddtheta, ddpsi = dx
+    sin_theta, cos_theta = sincos(theta)
+    sin_psi, cos_psi = sincos(psi)
+    x0 = sin_psi*sin_theta
+    x1 = ddpsi*r
+    x2 = cos_psi*cos_theta
+    x3 = ddtheta*r
+    x4 = cos_psi*sin_theta
+    x5 = cos_theta*sin_psi
+    x6 = dtheta*r
+    x7 = dpsi*r
+    return (ddc1 - ddphi*r*sin_psi + x0*x1 - x2*x3 + x6*(dpsi*x5 + dtheta*x4) + x7*(-cos_psi*dphi + dpsi*x4 + dtheta*x5), cos_psi*ddphi*r + ddc2 - x1*x4 - x3*x5 - x6*(dpsi*x2 - dtheta*x0) - x7*(dphi*sin_psi - dpsi*x0 + dtheta*x2),)
+
+
+@inline_kernel
+def stick(x, r):
+    """The 10-state just after the contact impulse that zeroes the slip (sticking): the impulse P = -W^-1 v at
+    the contact point, W = A M^-1 A^T, changes the velocities by M^-1 A^T P and the kinetic energy by
+    v . P / 2 <= 0 (M the kinetic energy's mass matrix, A the slip's, v = A dq the slip)."""
+    c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi = x
+    v1, v2 = slip_velocity(x, r)
+    sin_theta, cos_theta = sincos(theta)
+    sin_psi, cos_psi = sincos(psi)
+    x0 = cos_psi*v2
+    x1 = sin_theta*sin_theta
+    x2 = (4/5)*x1 - 2/15
+    x3 = cos_psi*cos_psi
+    x4 = sin_psi*v1
+    x5 = sin_psi*sin_psi
+    x6 = 1/r
+    return (c1, c2, phi, theta, psi, dc1 - sin_psi*x0*x2 - 1/15*v1*(-12*cos_theta*cos_theta*x3 + 10*x3 + 5), -cos_psi*x2*x4 + dc2 - 1/15*v2*(12*x1*x5 - 2*x5 + 5), dphi - 2/3*x6*(x0 - x4), (4/5)*cos_theta*x6*(cos_psi*v1 + sin_psi*v2) + dtheta, dpsi,)
+
+
+@inline_kernel
 def friction_diagnostics(x, tau_spin, tau_steer, f1, f2, m, g, r):
     """(energy, normal_force, v1, v2) under the contact force N (f1, f2): kinetic plus potential energy (J), the
     vertical ground reaction on the disk, N = m (g + c3'') (N), and the slip velocity (m/s)."""
@@ -105,7 +141,8 @@ def friction_diagnostics(x, tau_spin, tau_steer, f1, f2, m, g, r):
 @inline_kernel
 def sliding_derivative(x, tau_spin, tau_steer, mu, m, g, r):
     """dx/dt under kinetic Coulomb friction of coefficient mu (none at zero slip)."""
-    f1, f2 = kinetic_friction(x, mu, r)
+    v1, v2 = slip_velocity(x, r)
+    f1, f2 = kinetic_friction(v1, v2, mu)
     return friction_derivative(x, tau_spin, tau_steer, f1, f2, m, g, r)
 
 
@@ -113,6 +150,7 @@ def sliding_derivative(x, tau_spin, tau_steer, mu, m, g, r):
 def sliding_diagnostics(x, tau_spin, tau_steer, mu, m, g, r):
     """(energy, normal_force, F1, F2, v1, v2) under kinetic Coulomb friction of coefficient mu: J, the vertical and
     the horizontal ground reactions on the disk (N), and the slip velocity (m/s)."""
-    f1, f2 = kinetic_friction(x, mu, r)
+    v1, v2 = slip_velocity(x, r)
+    f1, f2 = kinetic_friction(v1, v2, mu)
     energy, normal, v1, v2 = friction_diagnostics(x, tau_spin, tau_steer, f1, f2, m, g, r)
     return energy, normal, normal*f1, normal*f2, v1, v2

@@ -38,6 +38,22 @@ from rolling_disk_env.dynamics import ROLLING_INDICES
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.tasks.base import TRACK, Task
 
+GIVEN_SIZE = 10
+"""Columns of the initial states a reset takes (``engine.ResetArrays.given``): the 8-state, then the centre's
+velocity (m/s; NaN: from the rolling constraint, which the ``"rolling"`` contact always takes)."""
+
+
+def given_states(states: np.ndarray) -> np.ndarray:
+    """Initial states, (N, 8) rolling states or (N, 10) sliding states (:data:`rolling_disk_env.SLIDING_STATE_NAMES`),
+    as a reset takes them: (N, :data:`GIVEN_SIZE`), the 8-state then the centre's velocity."""
+    given = np.full((states.shape[0], GIVEN_SIZE), np.nan)
+    if states.shape[1] == 8:
+        given[:, :8] = states
+    else:
+        given[:, :8], given[:, 8:] = states[:, list(ROLLING_INDICES)], states[:, 5:7]
+    return given
+
+
 THREADS_FROM = 2048
 """Batches of this many disks or more step on several threads (``benchmarks/bench_env.py`` measures the threaded
 step against the serial one around it)."""
@@ -345,7 +361,7 @@ class DiskBatch:
         self.error_sums = _touched(np.empty((self.threads, engine.HISTORY + history, self.share, engine.SUM_BLOCK)))
         self.listed = np.zeros((self.threads, self.share if tracked else 0), dtype=np.int64)
         self.uniforms = np.zeros((num_envs, config.draws))
-        self.no_state = np.full((num_envs, config.state_size), np.nan)
+        self.no_state = np.full((num_envs, GIVEN_SIZE), np.nan)
         self.observation_rows = slice(engine.TERMS + self.terms, engine.TERMS + self.terms + self.observation_size)
         """The rows of the observation (clipped, float64) in an info block."""
         self.rows = self.observation_rows.stop + (0 if self.contact_rows is None else 5)
@@ -418,18 +434,12 @@ class DiskBatch:
                 the ``"sliding"`` and ``"coulomb"`` contacts (centre velocities of NaN: from the rolling constraint).
         """
         rngs = self._no_rngs if rngs is None else rngs
-        states = self.no_state if states is None else states
         reset = self._resets[self.choice is not None and self.choice.threaded]
-        given = states if self.contact_rows is None else np.ascontiguousarray(states[:, list(ROLLING_INDICES)])
-        reset((mask, rngs, self.uniforms, given), self._arrays, out.shares)
-        self._start_contact(mask, out, states)
-
-    def _start_contact(self, mask: np.ndarray, out: Outputs, states: np.ndarray) -> None:
-        """Under the ``"sliding"`` and ``"coulomb"`` contacts, completes the reset of the disks of ``mask``
-        (:func:`rolling_disk_env.engine.start_contact`); under ``"rolling"``, nothing."""
-        if self.contact_rows is not None:
-            velocities = np.ascontiguousarray(states[:, 5:7])
-            engine.start_contact(mask, velocities, self.lanes, self.setup, out.blocks[1], self.contact_rows)
+        reset(
+            (mask, rngs, self.uniforms, self.no_state if states is None else given_states(states)),
+            self._arrays,
+            out.shares,
+        )
 
     def step(
         self, actions: np.ndarray, out: Outputs, resetting: np.ndarray | None = None, rngs: np.ndarray | None = None
@@ -460,8 +470,6 @@ class DiskBatch:
             start = time.perf_counter()
             bad = self._step(threaded, arguments)(*arguments)
             self.choice.record(threaded, time.perf_counter() - start)
-        if bad < 0 and resetting is not None:
-            self._start_contact(resetting, out, self.no_state)
         return bad
 
     @property

@@ -12,6 +12,7 @@ import numpy as np
 from gymnasium import spaces
 
 from rolling_disk_env import engine
+from rolling_disk_env.constants import CONTACTS
 from rolling_disk_env.dynamics import (
     DEFAULT_PARAMS,
     FULL_MODEL,
@@ -28,9 +29,6 @@ from rolling_disk_env.tasks import TASKS, Task
 ACTUATORS = ("spin", "steer")
 """Torque inputs, in the order of the dynamics' ``(tau_spin, tau_steer)``."""
 RESET_OPTIONS = frozenset({"state"})
-CONTACTS = ("rolling", "sliding", "coulomb")
-"""The contact models (``contact=``): the paper's rolling without slipping; the frozen lake's sliding, with kinetic
-Coulomb friction of ``friction_coefficient`` (default 0); their hybrid by Coulomb's law."""
 PAINLEVE_BOUND = math.sqrt(5) / 2
 """The sliding model's normal force stays finite for friction coefficients below sqrt(5)/2 (Painleve's paradox
 above: see ``rolling_disk_env/_generated/sliding.py``)."""
@@ -251,7 +249,7 @@ class EnvConfig:
             engine.RTOL: self.rtol,
             engine.ATOL: self.atol,
             engine.FRICTION: math.inf if self.friction_coefficient is None else self.friction_coefficient,
-            engine.COULOMB: float(self.contact == "coulomb"),
+            engine.CONTACT: float(CONTACTS.index(self.contact)),
             engine.MAX_STEPS: max_episode_steps or 0,
             engine.SUCCESS_BOUND: self.task.success_bound,
         }
