@@ -6,14 +6,19 @@ again, and the cost of each contact model per disk-step.
 0.356, on a surface of mu = 0.3, under ``contact="coulomb"`` (``rd.simulate``, dop853): it slides from the start,
 leans into the turn and spirals in, loses energy to friction, sticks, and rolls on. Beside it, the same start rolling
 (the paper's model, which assumes friction enough) and on the frozen lake (``contact="sliding"``, mu = 0). The timing
-(skipped with ``--skip-timing``; run it on a quiet machine) is of the native vector env under each contact (task
-``circle``, random actions, N = 1 and 1024, against ``CartPoleVectorEnv`` timed in turns with it), and of
+(skipped with ``--skip-timing``; run it on a quiet machine) is of batches of disks that need no friction, a tenth of
+them driven to slide, under the rolling and the Coulomb contacts (N = 1024 and 4096); of the native vector env under
+each contact (task ``circle``, random actions, N = 1 and 1024, against ``CartPoleVectorEnv`` timed in turns with it);
+and of
 ``rd.simulate`` for one disk, per output step of 0.01 s, with each contact and method, on scenario 1 (which never
 needs more than 0.186: the hybrid rolls throughout) and on scenario 2 at mu = 0.3 (slides, then rolls).
 """
 
 from __future__ import annotations
 
+import time
+
+import gymnasium as gym
 import numpy as np
 from _common import arguments, cpu, median_seconds, medians_in_turns, table, write_markdown
 from bench_env import VectorRun
@@ -102,7 +107,62 @@ ENV_CONTACTS = {
     "coulomb, mu = 1.1 (rolls throughout)": {"contact": "coulomb", "friction_coefficient": 1.1},
     "coulomb, mu = 0.2 (slides at times)": {"contact": "coulomb", "friction_coefficient": 0.2},
 }
-"""The contacts whose env steps are timed, by row name."""
+"""The contacts whose env steps are timed on task circle with random actions, by row name."""
+BATCH_SETUP = {
+    "task": "upright",
+    "initial_ranges": {"theta": (0.0, 0.0), "dtheta": (0.0, 0.0), "dpsi": (0.0, 0.0), "dphi": (3.0, 4.0)},
+}
+"""Disks that need no friction: upright, rolling straight faster than they need to stay up (3 to 4 rad/s against
+sqrt(g / 3r) = 1.81)."""
+BATCH_CONTACTS = {
+    "rolling": {},
+    "coulomb, mu = 1.1: no disk slides": {"contact": "coulomb", "friction_coefficient": 1.1},
+    "coulomb, mu = 0.05: a tenth slide": {"contact": "coulomb", "friction_coefficient": 0.05},
+}
+"""The batches of :func:`batch_rows`: a tenth of the disks spun by the full spin torque (5 N m, which needs a friction
+coefficient of 2 tau / (3 m g r) = 0.068 to roll), the others without torque."""
+
+
+class DrivenRun:
+    """A vector env of :data:`BATCH_SETUP` stepped with a tenth of its disks under the full spin torque: each call
+    times about ``seconds`` of stepping and returns the env steps per second; ``sliding`` gathers the fraction of
+    disks that slide at each step."""
+
+    def __init__(self, num_envs: int, kwargs: dict, seconds: float):
+        self.env = gym.make_vec(
+            rd.ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point", **BATCH_SETUP, **kwargs
+        )
+        self.env.reset(seed=0)
+        self.action = np.zeros((num_envs, 2), np.float32)
+        self.action[::10, 0] = 1.0  # every tenth disk: spread over the threads' shares
+        self.sliding: list[float] = []
+        self.steps = 1
+        start = time.perf_counter()
+        self()  # compiles or loads the steps
+        self.steps = max(5, round(seconds / ((time.perf_counter() - start) / self.steps)))
+
+    def __call__(self) -> float:
+        start = time.perf_counter()
+        for _ in range(self.steps):
+            info = self.env.step(self.action)[-1]
+            self.sliding.append(float(np.mean(info["sliding"])))
+        return self.env.num_envs * self.steps / (time.perf_counter() - start)
+
+
+def batch_rows(quick: bool) -> list[list[object]]:
+    """Nanoseconds per disk-step of a batch of :data:`BATCH_SETUP` under each of :data:`BATCH_CONTACTS`, timed in
+    turns, and the cost against the rolling batch's."""
+    rows = []
+    for n in (1024, 4096):
+        seconds = 0.05 if quick else 0.5
+        runs = {name: DrivenRun(n, kw, seconds) for name, kw in BATCH_CONTACTS.items()}
+        rates = medians_in_turns(runs, 3 if quick else 9)
+        for name, run in runs.items():
+            cost = rates["rolling"] / rates[name]
+            sliding = 100 * np.mean(run.sliding)
+            rows.append([name, n, f"{1e9 / rates[name]:.0f}", f"{cost:.2f}", f"{sliding:.1f}%"])
+            run.env.close()
+    return rows
 
 
 def env_rows(quick: bool) -> list[list[object]]:
@@ -166,6 +226,13 @@ def main() -> None:
         if args.skip_timing
         else table(["contact", "N", "ns per disk-step", "x CartPoleVectorEnv"], env_rows(args.quick))
     )
+    batch_timing = (
+        skipped
+        if args.skip_timing
+        else table(
+            ["contact", "N", "ns per disk-step", "x the rolling batch's time", "disks sliding"], batch_rows(args.quick)
+        )
+    )
     timing = (
         skipped
         if args.skip_timing
@@ -196,17 +263,26 @@ def main() -> None:
             "",
             f"CPU: {cpu()}.",
             "",
+            "Under the Coulomb contact a batch rolls every disk in the vectorized loops of the rolling step, each "
+            "disk checked against mu at the start of each substep and at the end; those that slide or slip go "
+            "through the period again on their own, one mode at a time (`engine.advance_contact`, which the model "
+            "API's `simulate_contact` runs too). Batches of disks that need no friction (upright, rolling straight "
+            "at 3 to 4 rad/s), a tenth of them spun by the full spin torque (5 N m: rolling needs mu >= 0.068), "
+            "median of 9 samples of 0.5 s, the contacts timed in turns:",
+            "",
+            batch_timing,
+            "",
             "The native vector env, task circle, random actions in [-1, 1], median of 7 samples of 0.5 s, each "
-            "contact timed in turns with `CartPoleVectorEnv` at the same N. The rolling contact runs the vectorized "
-            "fused step; the sliding and Coulomb contacts a step of their own, per disk, one mode at a time "
-            "(`engine.advance_contact`: RK4 steps, a step that crosses a switching event cut there by bisection), so "
-            "the rolling default pays nothing for them.",
+            "contact timed in turns with `CartPoleVectorEnv` at the same N. Random torques on the circle make disks "
+            "slip and stick again: each start and end of a slide takes the hybrid's short steps near zero slip "
+            "(`engine.slide_step_limit`), which these rows pay for.",
             "",
             env_timing,
             "",
-            "`rd.simulate` for one disk, microseconds per output step of 0.01 s (median of 7 runs). The sliding and "
-            "Coulomb contacts run each disk through its events in Python around the compiled model (scipy's "
-            "DOP853 for dop853, a Python RK4 for rk4), the rolling one in the compiled engine (scipy for dop853).",
+            "`rd.simulate` for one disk, microseconds per output step of 0.01 s (median of 7 runs). Under the "
+            "sliding and Coulomb contacts rk4 runs the engine's switching (`engine.contact_run`), dop853 scipy's "
+            "DOP853 between the events and the engine near zero slip; the rolling contact the compiled engine "
+            "(scipy for dop853).",
             "",
             timing,
         ],

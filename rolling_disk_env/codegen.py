@@ -433,6 +433,14 @@ coefficients below that (above, Painleve's paradox: N can have no finite value).
 _SLIDING_COMPOSED = '''
 
 @inline_kernel
+def stick(x, r):
+    """The 10-state just after the contact impulse that zeroes the slip v (sticking): it changes the kinetic energy by
+    v . P / 2 = -v^T W^-1 v / 2 <= 0."""
+    v1, v2 = slip_velocity(x, r)
+    return impulse(x, -v1, -v2, r)
+
+
+@inline_kernel
 def sliding_derivative(x, tau_spin, tau_steer, mu, m, g, r):
     """dx/dt under kinetic Coulomb friction of coefficient mu (none at zero slip)."""
     v1, v2 = slip_velocity(x, r)
@@ -515,13 +523,19 @@ def generate_sliding() -> str:
             (f"{', '.join(['_'] * 5 + [str(a) for a in d.ddq])} = dx",),
         ),
         _sliding_source(
-            "stick",
+            "impulse",
+            ("x", "dv1", "dv2", "r"),
+            [*d.q, *sliding.impulse_velocities],
+            "The 10-state just after the contact impulse P = W^-1 dv at the contact point that changes the slip by"
+            "\n    dv = (dv1, dv2) (m/s): it changes the velocities by M^-1 A^T P (W = A M^-1 A^T, M the kinetic energy's"
+            "\n    mass matrix, A the slip's: v = A dq).",
+        ),
+        _sliding_source(
+            "mobility",
             ("x", "r"),
-            [*d.q, *sliding.stick_velocities],
-            "The 10-state just after the contact impulse that zeroes the slip (sticking): the impulse P = -W^-1 v at"
-            "\n    the contact point, W = A M^-1 A^T, changes the velocities by M^-1 A^T P and the kinetic energy by"
-            "\n    v . P / 2 <= 0 (M the kinetic energy's mass matrix, A the slip's, v = A dq the slip).",
-            ("v1, v2 = slip_velocity(x, r)",),
+            [sliding.mobility[0, 0], sliding.mobility[0, 1], sliding.mobility[1, 1]],
+            "(w11, w12, w22): m W = m A M^-1 A^T, how the slip responds to a horizontal force at the contact point"
+            "\n    (symmetric; its eigenvalues are 3 and 5 / (1 + 4 sin^2 theta)).",
         ),
         _sliding_source(
             "friction_diagnostics",

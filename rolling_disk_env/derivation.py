@@ -68,6 +68,8 @@ friction_ratio = sp.Matrix([f1, f2])
 """The horizontal contact force on the disk per unit normal force, along world x and y (``|f| <= mu``)."""
 slip = sp.Matrix([v1, v2])
 """The slip velocity: the horizontal velocity of the disk's material contact point, along world x and y (m/s)."""
+slip_change = sp.Matrix(sp.symbols("dv1 dv2"))
+"""A change of the slip velocity (m/s), which a contact impulse makes."""
 sliding_state = (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi)
 
 
@@ -269,10 +271,11 @@ class SlidingDerivation:
         energy: kinetic plus potential energy ``E_K + E_p`` with the centre's horizontal velocity free (J).
         slip_acceleration: ``dv/dt = d(A(q) dq)/dt``, in the state and the symbols ``dd<name>`` of its time derivative
             (:data:`ddq` for the accelerations; m/s^2).
-        stick_velocities: ``dq + M^-1 A^T P``, the velocities just after the contact impulse ``P = -W^-1 v``,
-            ``W = A M^-1 A^T``, that zeroes the slip ``v`` (symbols ``v1, v2``): ``M`` the kinetic energy's mass
-            matrix ``d^2 E_K / d dq^2``. The impulse acts at the contact point; it changes the kinetic energy by
-            ``v . P / 2 = -v^T W^-1 v / 2 <= 0``.
+        impulse_velocities: ``dq + M^-1 A^T P``, the velocities just after the contact impulse ``P = W^-1 dv``,
+            ``W = A M^-1 A^T``, that changes the slip by ``dv`` (symbols :data:`slip_change`): ``M`` the kinetic
+            energy's mass matrix ``d^2 E_K / d dq^2``. The impulse acts at the contact point; with ``dv = -v`` it
+            zeroes the slip (sticking) and changes the kinetic energy by ``v . P / 2 = -v^T W^-1 v / 2 <= 0``.
+        mobility: ``m W``, the slip's response to a horizontal force at the contact point (symmetric, 2 x 2).
     """
 
     slip_velocity: sp.Matrix
@@ -285,7 +288,8 @@ class SlidingDerivation:
     kinetic_friction: sp.Matrix
     energy: sp.Expr
     slip_acceleration: sp.Matrix
-    stick_velocities: sp.Matrix
+    impulse_velocities: sp.Matrix
+    mobility: sp.Matrix
 
 
 @functools.cache
@@ -323,13 +327,13 @@ def derive_sliding() -> SlidingDerivation:
     # The slip's rate of change, the derivative of A(q) dq along the motion: where a slide will stop.
     slip_acceleration = slip_velocity.jacobian([*q, *dq]) * sp.Matrix([*dq, *ddq])
 
-    # Sticking: the impulse P at the contact point that zeroes the slip, M (dq+ - dq) = A^T P with A dq+ = 0 (the
-    # normal impulse keeps c3 = r cos(theta) and does no work: it is not in the reduced coordinates q).
+    # A contact impulse P at the contact point, M (dq+ - dq) = A^T P, changing the slip by dv = A (dq+ - dq) = W P
+    # (the normal impulse keeps c3 = r cos(theta) and does no work: it is not in the reduced coordinates q).
     kinetic_mass = sp.hessian(rolling.kinetic_energy, dq).applyfunc(sp.simplify)
     response = kinetic_mass.inv().applyfunc(sp.simplify) * rolling.constraint_matrix.T
     delassus = (rolling.constraint_matrix * response).applyfunc(sp.simplify)
-    impulse = -delassus.inv().applyfunc(sp.simplify) * slip
-    stick_velocities = dq + (response * impulse).applyfunc(sp.simplify)
+    impulse = delassus.inv().applyfunc(sp.simplify) * slip_change
+    impulse_velocities = dq + (response * impulse).applyfunc(sp.simplify)
 
     return SlidingDerivation(
         slip_velocity=slip_velocity,
@@ -342,5 +346,6 @@ def derive_sliding() -> SlidingDerivation:
         kinetic_friction=kinetic_friction,
         energy=rolling.kinetic_energy + rolling.potential_energy,
         slip_acceleration=slip_acceleration,
-        stick_velocities=stick_velocities,
+        impulse_velocities=impulse_velocities,
+        mobility=(m * delassus).applyfunc(sp.simplify),
     )

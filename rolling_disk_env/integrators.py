@@ -654,18 +654,29 @@ class _ContactRun:
                 )
         return self.out, tuple(self.events)
 
+    def near(self, x: np.ndarray) -> bool:
+        """Whether a sliding 10-state is near zero slip, where the engine's steps slave the slip's direction
+        (:data:`rolling_disk_env.engine.EXPLICIT_FROM`, with N = m g)."""
+        from rolling_disk_env import engine
+
+        speed = math.hypot(*self.sliding_contact(_Phase(False, np.zeros(2), np.zeros(2)), 0.0, x)[1])
+        return engine.TURN * speed < engine.EXPLICIT_FROM * 5 * self.mu * self.disk[1]
+
     def near_zero_slip(self, phase: _Phase, t: float, y: np.ndarray, k: int):
         """A slide from ``(t, y)`` near zero slip, at its start or near its stop, by the engine's steps
         (:func:`rolling_disk_env.engine.contact_segment`, the one implementation of a slide's start, its stop and its
         impulse: near zero slip the slip's direction turns faster than scipy's steps follow), which write the outputs
-        they pass. Returns ``(t, phase, y, k)`` after an event, or after the first step of the engine that went to
-        the next output time unshortened (the slip had grown), or ``(None, None, None, k)`` at the end."""
+        they pass. Returns ``(t, phase, y, k)`` after an event, or once the slip is no longer near zero
+        (:meth:`near`), or ``(None, None, None, k)`` at the end."""
         from rolling_disk_env import engine
 
         law = (self.mu, tuple(phase.onset), tuple(phase.reference), self.zero_slip)
         x, rolling = tuple(y.tolist()), False
         while k < len(self.times):
-            u = tuple(self.torque(t, np.array(x)))
+            state = np.array(x)
+            if not self.near(state) and np.any(law[2]):  # on with scipy's steps, from the slip's direction
+                return t, _Phase(False, np.array(law[1]), np.array(law[2])), state, k
+            u = tuple(self.torque(t, state))
             left = self.times[k] - t
             x, rolling, law, used, code, kind, slip, change = engine.contact_segment(
                 x, rolling, law, left, u, self.mu, self.coulomb, self.constants
@@ -682,8 +693,6 @@ class _ContactRun:
                     raise self.fail(code, t, state)
                 self.events.append(SwitchEvent(t, ("", "slip", "stick", "reslip")[kind], state.copy(), slip, change))
                 return t, phase, (state[list(ROLLING_INDICES)] if rolling else state), k
-            if used >= left:  # a step that the slip's stop did not shorten: no stop near, back to scipy's steps
-                return t, phase, state, k
             self.steps += 1
             if self.steps > MAX_CONTACT_STEPS:
                 raise OutOfDomainError(f"{MAX_CONTACT_STEPS} steps did not reach t = {self.times[-1]:.6g} s", time=t)
@@ -730,10 +739,8 @@ class _ContactRun:
                 return time, dense(time), self.fill(phase, dense, time, k)
             k = self.fill(phase, dense, stepper.t, k)
             t, y = stepper.t, new
-            if not phase.rolling and self.mu > 0:
-                turn = engine.TURN * math.hypot(*self.sliding_contact(phase, t, y)[1]) / (5 * self.mu * self.disk[1])
-                if turn < stepper.step_size:
-                    return t, y, k
+            if not phase.rolling and self.mu > 0 and self.near(y):
+                return t, y, k
             self.set_reference(phase, t, y)
         return None, None, k
 

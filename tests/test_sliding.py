@@ -195,13 +195,14 @@ def test_stick_events_land_where_the_slip_speed_reaches_zero():
     trajectory = simulate_contact(SCENARIO_2, 2.0, 0.001, "dop853", friction_coefficient=0.3, rtol=1e-12, atol=1e-12)
     assert [event.kind for event in trajectory.events] == ["slip", "stick"]
     stick = trajectory.events[1].time
-    # Sampled every 10 microseconds over its last millisecond of sliding, the slip speed falls to zero at the event:
-    # the parabola through its last three samples reaches zero within 1e-8 s of it.
+    # Sampled every 10 microseconds over its last millisecond of sliding, the slip speed falls to zero at the event
+    # (found again within 2e-9 s: near zero slip the engine's steps run to the next output time): the parabola
+    # through its last three samples reaches zero within 1e-8 s of it.
     before = np.flatnonzero(trajectory.times < stick)[-1]
     start = trajectory.times[before]
     close = simulate_contact(trajectory.states[before], 0.001, 1e-5, "dop853", friction_coefficient=0.3, rtol=1e-12)
     (event,) = close.events
-    assert event.kind == "stick" and start + event.time == pytest.approx(stick, abs=1e-9)
+    assert event.kind == "stick" and start + event.time == pytest.approx(stick, abs=2e-9)
     speeds = np.hypot(*rd.slip_velocity(close.states).T)
     sliding = np.flatnonzero(close.times < event.time)
     last = sliding[-3:]

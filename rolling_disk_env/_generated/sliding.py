@@ -37,8 +37,9 @@ def slip_velocity(x, r):
 @inline_kernel
 def kinetic_friction(v1, v2, mu):
     """(f1, f2) = -mu v / |v|, Coulomb's kinetic friction per unit normal force, opposing the slip
-    v = (v1, v2) (m/s); zero at zero slip, where the kinetic law gives no direction (there the Coulomb
-    hybrid rolls, or starts sliding with the friction the rolling contact needs: engine.contact_phase)."""
+    v = (v1, v2) (m/s); zero at zero slip, where the kinetic law gives no direction (there the
+    Coulomb hybrid rolls, or starts sliding with the friction the rolling contact needs:
+    engine.contact_phase)."""
     slip_speed = sqrt(v1*v1 + v2*v2)
     return (-mu*v1/slip_speed, -mu*v2/slip_speed) if slip_speed > 0.0 else (0.0, 0.0)
 
@@ -97,22 +98,36 @@ def slip_acceleration(x, dx, r):
 
 
 @inline_kernel
-def stick(x, r):
-    """The 10-state just after the contact impulse that zeroes the slip (sticking): the impulse P = -W^-1 v at
-    the contact point, W = A M^-1 A^T, changes the velocities by M^-1 A^T P and the kinetic energy by
-    v . P / 2 <= 0 (M the kinetic energy's mass matrix, A the slip's, v = A dq the slip)."""
+def impulse(x, dv1, dv2, r):
+    """The 10-state just after the contact impulse P = W^-1 dv at the contact point that changes the slip by
+    dv = (dv1, dv2) (m/s): it changes the velocities by M^-1 A^T P (W = A M^-1 A^T, M the kinetic energy's
+    mass matrix, A the slip's: v = A dq)."""
     c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi = x
-    v1, v2 = slip_velocity(x, r)
     sin_theta, cos_theta = sincos(theta)
     sin_psi, cos_psi = sincos(psi)
-    x0 = cos_psi*v2
+    x0 = cos_psi*dv2
     x1 = sin_theta*sin_theta
     x2 = (4/5)*x1 - 2/15
     x3 = cos_psi*cos_psi
-    x4 = sin_psi*v1
+    x4 = dv1*sin_psi
     x5 = sin_psi*sin_psi
     x6 = 1/r
-    return (c1, c2, phi, theta, psi, dc1 - sin_psi*x0*x2 - 1/15*v1*(-12*cos_theta*cos_theta*x3 + 10*x3 + 5), -cos_psi*x2*x4 + dc2 - 1/15*v2*(12*x1*x5 - 2*x5 + 5), dphi - 2/3*x6*(x0 - x4), (4/5)*cos_theta*x6*(cos_psi*v1 + sin_psi*v2) + dtheta, dpsi,)
+    return (c1, c2, phi, theta, psi, dc1 + (1/15)*dv1*(-12*cos_theta*cos_theta*x3 + 10*x3 + 5) + sin_psi*x0*x2, cos_psi*x2*x4 + dc2 + (1/15)*dv2*(12*x1*x5 - 2*x5 + 5), dphi + (2/3)*x6*(x0 - x4), -4/5*cos_theta*x6*(cos_psi*dv1 + dv2*sin_psi) + dtheta, dpsi,)
+
+
+@inline_kernel
+def mobility(x, r):
+    """(w11, w12, w22): m W = m A M^-1 A^T, how the slip responds to a horizontal force at the contact point
+    (symmetric; its eigenvalues are 3 and 5 / (1 + 4 sin^2 theta))."""
+    c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi = x
+    sin_theta, cos_theta = sincos(theta)
+    sin_psi, cos_psi = sincos(psi)
+    x0 = sin_theta*sin_theta
+    x1 = 1/(4*x0 + 1)
+    x2 = sin_psi*sin_psi
+    x3 = cos_theta*cos_theta
+    x4 = cos_psi*cos_psi
+    return (x1*(12*x0*x2 - 2*x2 + 5), 2*cos_psi*sin_psi*x1*(6*x3 - 5), x1*(-12*x3*x4 + 10*x4 + 5),)
 
 
 @inline_kernel
@@ -136,6 +151,14 @@ def friction_diagnostics(x, tau_spin, tau_steer, f1, f2, m, g, r):
     x11 = dphi*r
     x12 = dtheta*x0
     return ((1/8)*m*(4*dc1*dc1 + 4*dc2*dc2 + 2*dphi*dphi*x2 - dphi*dpsi*x2*x6 + 8*g*x0 + x3*x7 + x3 + 4*x5*x7 + x5), -1/2*m*(dpsi*x11*x9 + 2*g - 2*x0*x4 + x10*(x8 - 3) - x10)/(x8 + x9*(cos_psi*f1 + f2*sin_psi) - 5), -cos_psi*x12 + dc1 + dpsi*r*sin_psi*sin_theta - sin_psi*x11, -cos_psi*dpsi*r*sin_theta + cos_psi*x11 + dc2 - sin_psi*x12,)
+
+
+@inline_kernel
+def stick(x, r):
+    """The 10-state just after the contact impulse that zeroes the slip v (sticking): it changes the kinetic energy by
+    v . P / 2 = -v^T W^-1 v / 2 <= 0."""
+    v1, v2 = slip_velocity(x, r)
+    return impulse(x, -v1, -v2, r)
 
 
 @inline_kernel
