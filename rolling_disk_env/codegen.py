@@ -527,8 +527,8 @@ def generate_sliding() -> str:
             ("x", "dv1", "dv2", "r"),
             [*d.q, *sliding.impulse_velocities],
             "The 10-state just after the contact impulse P = W^-1 dv at the contact point that changes the slip by"
-            "\n    dv = (dv1, dv2) (m/s): it changes the velocities by M^-1 A^T P (W = A M^-1 A^T, M the kinetic energy's"
-            "\n    mass matrix, A the slip's: v = A dq).",
+            "\n    dv = (dv1, dv2) (m/s): it changes the velocities by M^-1 A^T P (W = A M^-1 A^T, M the kinetic"
+            "\n    energy's mass matrix, A the slip's: v = A dq).",
         ),
         _sliding_source(
             "mobility",

@@ -716,8 +716,6 @@ class _ContactRun:
         :meth:`near_zero_slip` goes on), or ``(None, None, k)`` at the end."""
         from scipy.integrate import DOP853, RK45
 
-        from rolling_disk_env import engine
-
         def rhs(time, state):
             return self.rolling_rhs(time, state) if phase.rolling else self.sliding_rhs(phase, time, state)
 

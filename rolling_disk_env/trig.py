@@ -16,8 +16,6 @@ publishes (Sun Microsystems, 1993, ``__kernel_sin`` and ``__kernel_cos``): mathe
 
 from __future__ import annotations
 
-import numpy as np
-
 from rolling_disk_env.jit import inline_kernel
 
 MAX_ANGLE = 1.0e6
@@ -37,10 +35,24 @@ _C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015
 _C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
 
+_ROUND = 6755399441055744.0
+"""1.5 * 2^52: ``(y + _ROUND) - _ROUND`` rounds a double of magnitude below 2^51 to the nearest integer."""
+
+
+@inline_kernel
+def floor(y):
+    """``np.floor(y)`` in IEEE additions and a comparison only: the nearest integer by adding and subtracting 1.5 *
+    2^52, less one where that rounded up (doubles from 2^51 on are integers already). ``np.floor`` has no lowering
+    for the GPU (numba-cuda); this compiles for both targets and vectorizes on AVX2 as on AVX-512."""
+    nearest = (y + _ROUND) - _ROUND
+    nearest = nearest - 1.0 if nearest > y else nearest
+    return nearest if abs(y) < 2251799813685248.0 else y
+
+
 @inline_kernel
 def sincos(x):
     """``(sin(x), cos(x))`` for an angle ``x`` in rad (see the module docstring for the accuracy)."""
-    k = np.floor(x * _TWO_OVER_PI + 0.5)
+    k = floor(x * _TWO_OVER_PI + 0.5)
     r = (((x - k * _PI_OVER_2[0]) - k * _PI_OVER_2[1]) - k * _PI_OVER_2[2]) - k * _PI_OVER_2[3]
     z = r * r
     sine = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
@@ -49,7 +61,7 @@ def sincos(x):
     w = 1.0 - half
     cosine = w + (((1.0 - w) - half) + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6))))))
     # x = k pi/2 + r: turn (sin r, cos r) by the quadrant k mod 4.
-    quadrant = k - 4.0 * np.floor(0.25 * k)
+    quadrant = k - 4.0 * floor(0.25 * k)
     odd = (quadrant == 1.0) | (quadrant == 3.0)
     s = cosine if odd else sine
     c = sine if odd else cosine

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rolling_disk_env.jit import kernel
-from rolling_disk_env.trig import MAX_ANGLE, sincos
+from rolling_disk_env.trig import MAX_ANGLE, floor, sincos
 
 
 @kernel
@@ -43,3 +43,26 @@ def test_sincos_interpreted_is_sincos_compiled():
     interpreted = np.array([sincos.py_func(a) for a in angles])
     np.testing.assert_array_equal(interpreted[:, 0], sines)
     np.testing.assert_array_equal(interpreted[:, 1], cosines)
+
+
+@kernel
+def _floor_many(values, out):
+    for i in range(values.shape[0]):
+        out[i] = floor(values[i])
+
+
+def test_floor_is_numpys_floor():
+    rng = np.random.default_rng(2)
+    values = np.concatenate(
+        [
+            rng.uniform(-1e6, 1e6, 100_000),
+            rng.uniform(-3, 3, 10_000),
+            np.arange(-1000, 1000) * 0.5,  # integers and halves
+            np.nextafter(np.arange(-50.0, 50.0), np.inf),
+            np.nextafter(np.arange(-50.0, 50.0), -np.inf),
+            [0.0, -0.0, 2.0**51 - 0.5, 2.0**51 + 1, -(2.0**51) - 1, 2.0**60, 1e300, -1e300, np.inf, -np.inf, np.nan],
+        ]
+    )
+    out = np.empty_like(values)
+    _floor_many(values, out)
+    np.testing.assert_array_equal(out, np.floor(values))

@@ -100,8 +100,8 @@ def slip_acceleration(x, dx, r):
 @inline_kernel
 def impulse(x, dv1, dv2, r):
     """The 10-state just after the contact impulse P = W^-1 dv at the contact point that changes the slip by
-    dv = (dv1, dv2) (m/s): it changes the velocities by M^-1 A^T P (W = A M^-1 A^T, M the kinetic energy's
-    mass matrix, A the slip's: v = A dq)."""
+    dv = (dv1, dv2) (m/s): it changes the velocities by M^-1 A^T P (W = A M^-1 A^T, M the kinetic
+    energy's mass matrix, A the slip's: v = A dq)."""
     c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi = x
     sin_theta, cos_theta = sincos(theta)
     sin_psi, cos_psi = sincos(psi)
