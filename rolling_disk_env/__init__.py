@@ -59,7 +59,7 @@ def _register() -> None:
             register(
                 id=env_id,
                 entry_point="rolling_disk_env.envs:RollingDiskEnv",
-                vector_entry_point="rolling_disk_env.envs:RollingDiskVectorEnv",
+                vector_entry_point="rolling_disk_env.envs:vector_env",
                 max_episode_steps=MAX_EPISODE_STEPS,
                 reward_threshold=threshold,
                 kwargs=kwargs,

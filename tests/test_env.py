@@ -53,7 +53,7 @@ def test_registration_is_idempotent():
     import importlib
 
     importlib.reload(rd)
-    assert gym.spec(rd.ENV_ID).vector_entry_point == "rolling_disk_env.envs:RollingDiskVectorEnv"
+    assert gym.spec(rd.ENV_ID).vector_entry_point == "rolling_disk_env.envs:vector_env"
 
 
 def _rollout(env, seed, steps, action_seed=0):

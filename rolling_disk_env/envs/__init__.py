@@ -2,6 +2,6 @@
 
 from rolling_disk_env.envs.config import Termination
 from rolling_disk_env.envs.rolling_disk import RollingDiskEnv
-from rolling_disk_env.envs.vector import RollingDiskVectorEnv
+from rolling_disk_env.envs.vector import RollingDiskVectorEnv, vector_env
 
-__all__ = ["RollingDiskEnv", "RollingDiskVectorEnv", "Termination"]
+__all__ = ["RollingDiskEnv", "RollingDiskVectorEnv", "Termination", "vector_env"]

@@ -324,8 +324,7 @@ class DiskBatch:
         task = config.task
         steps = task_steps(task)
         self.num_envs = num_envs
-        self.threads = thread_count(num_envs)
-        self.share = columns(-(-num_envs // self.threads))
+        self.threads, self.share = self._layout(num_envs)
         width = self.threads * self.share
         # The serial and the threaded kernels.
         method = config.integrator if config.contact == "rolling" else "contact"
@@ -380,6 +379,12 @@ class DiskBatch:
         """The settings, as the kernels take them (:class:`~rolling_disk_env.engine.SetupArrays`, a plain tuple)."""
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
         self._bundle()
+
+    def _layout(self, num_envs: int) -> tuple[int, int]:
+        """The shares of ``num_envs`` disks: how many (one per thread, :func:`thread_count`) and the columns of each
+        (:func:`columns`)."""
+        threads = thread_count(num_envs)
+        return threads, columns(-(-num_envs // threads))
 
     @property
     def states(self) -> np.ndarray:

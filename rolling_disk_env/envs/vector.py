@@ -80,7 +80,7 @@ class RollingDiskVectorEnv(VectorEnv):
         self.single_observation_space = self.config.observation_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self._batch = DiskBatch(self.config, self.num_envs, max_episode_steps)
+        self._batch = self._new_batch(max_episode_steps)
         self._rngs = np.zeros((self.num_envs, 4), dtype=np.uint64)
         self._seeded = False
         self._ended = np.zeros(self.num_envs, dtype=bool)
@@ -97,7 +97,7 @@ class RollingDiskVectorEnv(VectorEnv):
             # The others' latest observations, from the info block: the caller may have changed those it was given.
             out.observations[:] = self._last.info[self._batch.observation_rows].T
         self._batch.reset(mask, out, self._rngs, states)
-        self._ended &= ~mask
+        self._ended[mask] = False
         self._last = out
         return out.observations, self._infos(out, mask)  # fresh arrays, as the step's
 
@@ -127,22 +127,39 @@ class RollingDiskVectorEnv(VectorEnv):
             seeds = list(seed)
         else:
             raise ValueError(f"seed must be None, an int or a list of {self.num_envs} ints or None, got {seed!r}")
-        for i in np.flatnonzero(mask).tolist():
-            if seeds[i] is not None or not self._seeded:
-                self._rngs[i] = pcg64.state_words(seeding.np_random(seeds[i])[0])
+        rows = [i for i in np.flatnonzero(mask).tolist() if seeds[i] is not None or not self._seeded]
+        self._set_rngs(rows, [pcg64.state_words(seeding.np_random(seeds[i])[0]) for i in rows])
         self._seeded = True
+
+    def _new_batch(self, max_episode_steps: int | None) -> DiskBatch:
+        """The batch of the env's disks."""
+        return DiskBatch(self.config, self.num_envs, max_episode_steps)
+
+    def _set_rngs(self, rows: list[int], words: list[np.ndarray]) -> None:
+        """Sets the PCG64 states of the sub-environments ``rows``."""
+        if rows:
+            self._rngs[rows] = words
+
+    def _checked_actions(self, actions):
+        """``actions`` as the batch steps them: a C-contiguous float32 array of the action space's shape."""
+        if type(actions) is not np.ndarray or actions.dtype != np.float32 or not actions.flags.c_contiguous:
+            return checked_actions(actions, self.action_space.shape, "actions")
+        if actions.shape != self.action_space.shape:
+            raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
+        return actions
+
+    _kept = staticmethod(np.copy)
+    """A copy of an output array that the next step does not change."""
 
     def step(self, actions):
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        if type(actions) is not np.ndarray or actions.dtype != np.float32 or not actions.flags.c_contiguous:
-            actions = checked_actions(actions, self.action_space.shape, "actions")
-        elif actions.shape != self.action_space.shape:
-            raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
+        actions = self._checked_actions(actions)
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and self._ended.any():
+            ended = [i for i, done in enumerate(self._ended.tolist()) if done]
             raise ValueError(
-                f"sub-environments {np.flatnonzero(self._ended).tolist()} have ended and autoreset is disabled: "
+                f"sub-environments {ended} have ended and autoreset is disabled: "
                 'reset them with reset(options={"reset_mask": mask}) first'
             )
         out = self._batch.outputs(zeroed=False)  # the step writes every column
@@ -150,10 +167,10 @@ class RollingDiskVectorEnv(VectorEnv):
         resetting = self._ended if mode == AutoresetMode.NEXT_STEP else None
         bad = self._batch.step(actions, out, resetting, self._rngs)
         if bad >= 0:
-            raise ValueError(f"actions must be finite numbers, got {actions[bad]!r} for sub-environment {bad}")
+            raise ValueError(f"actions must be finite numbers, got {actions[bad].tolist()} for sub-environment {bad}")
         # Copies: views would keep the whole info block alive as long as the caller keeps them.
-        rewards = out.info[engine.REWARD].copy()
-        terminated, truncated = out.flags[engine.TERMINATED].copy(), out.flags[engine.TRUNCATED].copy()
+        rewards = self._kept(out.info[engine.REWARD])
+        terminated, truncated = self._kept(out.flags[engine.TERMINATED]), self._kept(out.flags[engine.TRUNCATED])
         ended = terminated | truncated
         if mode == AutoresetMode.SAME_STEP and ended.any():
             final = self._final(out, ended)
@@ -205,3 +222,13 @@ class RollingDiskVectorEnv(VectorEnv):
         kept.codes[ended] = out.codes[ended]
         final_info = self._infos(kept, ended)
         return {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info, "_final_info": ended.copy()}
+
+
+def vector_env(num_envs: int = 1, device=None, **kwargs) -> RollingDiskVectorEnv:
+    """The ids' ``vector_entry_point``: :class:`RollingDiskVectorEnv` (numpy), or with ``device`` ("cpu" or "cuda")
+    :class:`~rolling_disk_env.envs.torch_vector.RollingDiskTorchVectorEnv` (torch tensors on that device)."""
+    if device is None:
+        return RollingDiskVectorEnv(num_envs, **kwargs)
+    from rolling_disk_env.envs.torch_vector import RollingDiskTorchVectorEnv
+
+    return RollingDiskTorchVectorEnv(num_envs, device=device, **kwargs)
