@@ -1,17 +1,22 @@
 """Train a Stable-Baselines3 agent on a task of rolling-disk-env (the project's main job).
 
 Hyperparameters come from agents/hyperparams/<algo>.yml, rl-baselines3-zoo's format, in the block of the task's
-env id (RollingDiskUpright-v0, RollingDiskCircle-v0). The run directory (--out) receives model.zip, best_model.zip
-(the best periodic evaluation, with best_vecnormalize.pkl), vecnormalize.pkl, config.yml (the hyperparameters
-used), command.txt, TensorBoard logs in tb/ (tensorboard --logdir runs/) and results.md: mean +- std return and
-success rate over seeded evaluation episodes of the trained agent, the passive disk and the task's classical
-baseline. Ctrl-C stops training and still saves and evaluates the model.
+env id (RollingDiskUpright-v0, RollingDiskCircle-v0). The run directory (--out) receives model.zip (the final model,
+which the results table evaluates), best_model.zip (the best periodic evaluation, with best_vecnormalize.pkl),
+vecnormalize.pkl, config.yml (the hyperparameters used), command.txt, TensorBoard logs in tb/ (tensorboard --logdir
+runs/) and results.md: mean +- std return and success rate over seeded evaluation episodes of the trained agent, the
+passive disk and the task's classical baseline. Ctrl-C stops training and still saves and evaluates the model.
+
+With --device (cuda or cpu), rsl-rl-lib's PPO trains instead, on the torch vector env with the disks and the policy
+on that device (agents/hyperparams/rsl_rl_ppo.yml, the [gpu] extra): the run directory holds model.pt (rsl_rl's
+checkpoint) and policy.pt (TorchScript) instead of the .zip files, and the same table.
 
 examples:
   python train.py                                   # PPO on task upright: the README's main job
   python train.py --task circle                     # PPO on task circle
   python train.py --task circle --algo sac --timesteps 200000 --seed 3 --out runs/circle_sac
   python train.py --verbose 1                       # SB3's training logs and every evaluation
+  python train.py --device cuda                     # rsl_rl's PPO on the GPU, 4096 disks (the [gpu] extra)
   python -m agents.evaluate --model runs/upright_ppo_0/best_model.zip --render human   # watch the result
 """
 
@@ -28,6 +33,8 @@ TASKS = ("upright", "circle", "goto")
 ALGORITHMS = ("ppo", "sac", "td3")
 """The algorithms, the keys of ``agents.evaluate.ALGORITHMS`` (checked likewise)."""
 HYPERPARAMS = Path(__file__).parent / "agents" / "hyperparams"
+DEVICES = ("cpu", "cuda")
+"""The devices of --device (``rolling_disk_env.envs.torch_vector.DEVICES``)."""
 
 
 def integer_from(minimum: int):
@@ -93,6 +100,11 @@ def parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--threads", type=positive_int, default=1, metavar="N", help="torch CPU threads")
     parser.add_argument(
+        "--device",
+        choices=DEVICES,
+        help="train rsl_rl's PPO with the disks and the policy on this device (default: SB3 on the CPU engine)",
+    )
+    parser.add_argument(
         "--verbose", type=int, choices=(0, 1, 2), default=0, help="SB3's output: 1 training logs, 2 debug"
     )
     return parser
@@ -104,29 +116,35 @@ def main(argv: list[str] | None = None) -> list:
     arguments = parser()
     args = arguments.parse_args(argv)
 
+    if args.device is not None and args.algo != "ppo":
+        arguments.error(f"--device trains PPO (rsl_rl's), not {args.algo}")
     import rolling_disk_env as rd
     from agents.training import ConfigError, load_hyperparams, train
 
-    out = args.out or Path("runs") / f"{args.task}_{args.algo}_{args.seed}"
-    config = args.config or HYPERPARAMS / f"{args.algo}.yml"
+    name = f"rsl_rl_{args.device}" if args.device else args.algo
+    out = args.out or Path("runs") / f"{args.task}_{name}_{args.seed}"
+    config = args.config or HYPERPARAMS / f"{'rsl_rl_ppo' if args.device else args.algo}.yml"
     try:
         hyperparams = load_hyperparams(config, rd.TASK_IDS[args.task])
     except (OSError, ConfigError) as error:
         sys.exit(f"train.py: error: {error}")
     print(f"run directory: {out}", flush=True)
     try:
-        results = train(
-            args.task,
-            args.algo,
-            hyperparams,
-            out,
-            timesteps=args.timesteps,
-            n_envs=args.n_envs,
-            seed=args.seed,
-            eval_episodes=args.eval_episodes,
-            threads=args.threads,
-            verbose=args.verbose,
-        )
+        if args.device is not None:
+            results = _train_on_device(args, hyperparams, out)
+        else:
+            results = train(
+                args.task,
+                args.algo,
+                hyperparams,
+                out,
+                timesteps=args.timesteps,
+                n_envs=args.n_envs,
+                seed=args.seed,
+                eval_episodes=args.eval_episodes,
+                threads=args.threads,
+                verbose=args.verbose,
+            )
     except ConfigError as error:
         sys.exit(f"train.py: error: {config}: {error}")
     except KeyboardInterrupt:
@@ -135,6 +153,29 @@ def main(argv: list[str] | None = None) -> list:
     print((out / "results.md").read_text(), end="")
     print(f"run directory: {out}")
     return results
+
+
+def _train_on_device(args: argparse.Namespace, hyperparams: dict, out: Path) -> list:
+    """``--device``: rsl_rl's PPO (``agents.device_training``), with a clear exit where its extra is missing."""
+    try:
+        from agents.device_training import train_on_device
+    except ImportError as error:
+        sys.exit(f"train.py: error: {error}")
+    try:
+        return train_on_device(
+            args.task,
+            hyperparams,
+            out,
+            device=args.device,
+            timesteps=args.timesteps,
+            n_envs=args.n_envs,
+            seed=args.seed,
+            eval_episodes=args.eval_episodes,
+            threads=args.threads,
+            verbose=args.verbose,
+        )
+    except (ImportError, RuntimeError) as error:  # no numba-cuda, no GPU
+        sys.exit(f"train.py: error: {error}")
 
 
 if __name__ == "__main__":

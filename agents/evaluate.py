@@ -7,7 +7,8 @@ seen from above against the target) of the first episode; --render human shows i
 examples:
   python -m agents.evaluate --task circle --agent baseline --out eval/   # the task's classical controller
   python -m agents.evaluate --agent passive --episodes 20                 # zero torque, task upright
-  python -m agents.evaluate --model runs/upright_ppo_0/best_model.zip --render human
+  python -m agents.evaluate --model runs/upright_ppo_0/model.zip --render human
+  python -m agents.evaluate --model runs/upright_rsl_rl_cuda_0/policy.pt   # a policy of train.py --device
 A model's task and env keyword arguments come from the config.yml that train.py saved beside it.
 """
 
@@ -84,6 +85,21 @@ class NormalizedPolicy:
         return self.model.predict(observation, deterministic=deterministic)
 
 
+class TorchScriptPolicy:
+    """A policy exported as TorchScript (``policy.pt`` of ``train.py --device``: rsl_rl's actor with its observation
+    normalization), run on the CPU."""
+
+    def __init__(self, path: Path):
+        import torch
+
+        self.torch, self.policy = torch, torch.jit.load(str(path), map_location="cpu").eval()
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        with self.torch.inference_mode():
+            actions = self.policy(self.torch.as_tensor(np.asarray(observation, dtype=np.float32)))
+        return actions.numpy(), None
+
+
 def normalization_file(model: Path) -> Path:
     """Where the observation statistics of a saved model are: ``best_vecnormalize.pkl`` for ``best_model.zip`` (the
     statistics of the training at the evaluation that found it the best: they go on changing after it), where there
@@ -93,8 +109,12 @@ def normalization_file(model: Path) -> Path:
 
 
 def load_agent(path: Path):
-    """A saved model (``.zip``) with its observation statistics (:func:`normalization_file`), if there are any."""
+    """A saved model: an SB3 ``.zip`` with its observation statistics (:func:`normalization_file`), if there are any,
+    or a TorchScript policy ``.pt`` (:class:`TorchScriptPolicy`)."""
     from stable_baselines3.common.vec_env import VecNormalize
+
+    if path.suffix == ".pt":
+        return TorchScriptPolicy(path)
 
     run = path.parent
     algo = (run / "algo.txt").read_text().strip() if (run / "algo.txt").exists() else "ppo"

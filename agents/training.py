@@ -196,7 +196,7 @@ def check_env_kwargs(task: str, hyperparams: dict) -> dict:
     return env_kwargs
 
 
-def _positive_int(name: str, value) -> int:
+def positive_int(name: str, value) -> int:
     """``value`` as an int, if it is a whole number >= 1 (YAML writes 3e5 as a float)."""
     number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
     if not (number and math.isfinite(value) and value == int(value) and value >= 1):
@@ -343,10 +343,10 @@ def train(
     if verbose not in (0, 1, 2):
         raise ConfigError(f"verbose must be 0, 1 or 2, got {verbose!r}")
     env_id = rd.TASK_IDS[task]
-    timesteps = _positive_int("timesteps", hyperparams.get("n_timesteps") if timesteps is None else timesteps)
-    n_envs = _positive_int("n_envs", hyperparams.get("n_envs", 1) if n_envs is None else n_envs)
-    eval_episodes = _positive_int("eval_episodes", eval_episodes)
-    threads = _positive_int("threads", threads)
+    timesteps = positive_int("timesteps", hyperparams.get("n_timesteps") if timesteps is None else timesteps)
+    n_envs = positive_int("n_envs", hyperparams.get("n_envs", 1) if n_envs is None else n_envs)
+    eval_episodes = positive_int("eval_episodes", eval_episodes)
+    threads = positive_int("threads", threads)
     kwargs = algorithm_kwargs(algo, hyperparams)
     normalization = normalize_kwargs(hyperparams)
     env_kwargs = check_env_kwargs(task, hyperparams)

@@ -23,6 +23,7 @@ from the CPU's in the last bits (within 1e-12 relative over 200 steps); ``math.s
 from __future__ import annotations
 
 import functools
+import importlib.util
 import math
 
 import numba
@@ -33,14 +34,13 @@ from rolling_disk_env.envs.batch import DiskBatch, Outputs, given_states
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.jit import _PackageStamp
 
-try:
-    from numba import cuda
-    from numba.cuda.core import caching as cuda_caching
-except ImportError as error:  # numba-cuda is the [gpu] extra
+if importlib.util.find_spec("numba_cuda") is None:  # numba's own numba.cuda is its old, deprecated target
     raise ImportError(
-        'device="cuda" needs numba-cuda: pip install "rolling-disk-env[gpu]" (numba-cuda with its CUDA 13 '
-        f"wheels) ({error})"
-    ) from error
+        'device="cuda" needs numba-cuda, which is not installed: pip install "rolling-disk-env[gpu]" (numba-cuda '
+        "with its CUDA 13 wheels, and rsl-rl-lib)"
+    )
+from numba import cuda  # numba-cuda's (checked above)
+from numba.cuda.core import caching as cuda_caching
 
 SIMULATED = bool(numba.config.ENABLE_CUDASIM)
 """Whether numba-cuda's simulator runs the kernels (``NUMBA_ENABLE_CUDASIM=1``): on the CPU, with host memory."""
@@ -226,9 +226,15 @@ class DeviceBatch(DiskBatch):
             self._mask.zero_()
         else:
             self._mask.copy_(resetting)
-        resets = (self._views[1], self._no_rngs if rngs is None else rngs, self._uniforms, self._no_state)
-        launch(self._step_kernel, self.num_envs, (self._views[0], *self._device, self._out_views, resets))
+        launch(self._step_kernel, self.num_envs, self.step_arguments(rngs))
         return -1
+
+    def step_arguments(self, rngs=None) -> tuple:
+        """The argument of the step kernels, ``(actions, batch, setup, out, resets)``: the batch's arrays and the views
+        of its buffers of actions (N, A) and of the reset mask (N,), as the latest step or reset left them, with the
+        PCG64 states ``rngs`` (:attr:`rngs`; None: the uniforms as they are)."""
+        resets = (self._views[1], self._no_rngs if rngs is None else rngs, self._uniforms, self._no_state)
+        return (self._views[0], *self._device, self._out_views, resets)
 
     def seed(self, rows: list[int], words: list[np.ndarray]) -> None:
         """Sets the PCG64 states of the disks ``rows`` to ``words`` (4 uint64 each)."""

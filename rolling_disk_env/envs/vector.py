@@ -229,6 +229,9 @@ def vector_env(num_envs: int = 1, device=None, **kwargs) -> RollingDiskVectorEnv
     :class:`~rolling_disk_env.envs.torch_vector.RollingDiskTorchVectorEnv` (torch tensors on that device)."""
     if device is None:
         return RollingDiskVectorEnv(num_envs, **kwargs)
-    from rolling_disk_env.envs.torch_vector import RollingDiskTorchVectorEnv
+    try:
+        from rolling_disk_env.envs.torch_vector import RollingDiskTorchVectorEnv
+    except ModuleNotFoundError as error:
+        raise ImportError(f"device={device!r} hands out torch tensors and needs torch: pip install torch") from error
 
     return RollingDiskTorchVectorEnv(num_envs, device=device, **kwargs)

@@ -1,0 +1,161 @@
+"""The torch interface of the vector env (``make_vec(..., device=...)``): the same transitions as the numpy vector env
+in every autoreset mode, tensors of the documented dtypes, the CPU engine's outputs without a copy, and clear errors.
+``tests/test_gpu.py`` runs :func:`paired_rollout` on the CUDA kernels."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from gymnasium.vector import AutoresetMode
+
+import rolling_disk_env as rd
+
+STEPS, LIMIT = 200, 40
+"""Steps of a paired rollout, and episode steps before truncation (every sub-environment is reset several times)."""
+
+
+def make(num_envs: int, mode=AutoresetMode.NEXT_STEP, device=None, **kwargs):
+    """The ids' vector env, numpy (``device`` None) or torch."""
+    extra = {} if device is None else {"device": device}
+    return gym.make_vec(
+        rd.ENV_ID,
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
+        max_episode_steps=LIMIT,
+        autoreset_mode=mode,
+        **extra,
+        **kwargs,
+    )
+
+
+def _numpy(value):
+    return value.cpu().numpy() if isinstance(value, torch.Tensor) else np.asarray(value)
+
+
+def _assert_close(ours, theirs, rtol: float, where: str) -> None:
+    """Floats within ``rtol`` of the numpy env's, relative to each array's largest value; other dtypes equal."""
+    ours, theirs = _numpy(ours), _numpy(theirs)
+    assert ours.shape == theirs.shape, where
+    if theirs.dtype.kind == "f":
+        scale = max(float(np.max(np.abs(theirs), initial=0.0)), 1.0)
+        np.testing.assert_allclose(ours, theirs, rtol=0.0, atol=rtol * scale, err_msg=where)
+    else:
+        np.testing.assert_array_equal(ours, theirs, err_msg=where)
+
+
+def _assert_infos_close(ours: dict, theirs: dict, rtol: float, where: str, rows=slice(None)) -> None:
+    """Every key of the numpy env's info in ours, as tensors, close on the sub-environments ``rows``."""
+    assert ours.keys() == theirs.keys(), where
+    for key, value in theirs.items():
+        if key == "final_info":  # meaningful where the episodes ended
+            _assert_infos_close(ours[key], value, rtol, f"{where}[final_info]", np.asarray(theirs["_final_info"]))
+        elif key == "final_obs":
+            ended = np.asarray(theirs["_final_obs"])
+            stacked = np.stack([value[i] for i in np.flatnonzero(ended)]) if ended.any() else np.zeros((0,))
+            _assert_close(_numpy(ours[key])[ended].reshape(stacked.shape), stacked, rtol, f"{where}[final_obs]")
+        else:
+            assert isinstance(ours[key], torch.Tensor), f"{where}[{key}] is a {type(ours[key])}"
+            _assert_close(_numpy(ours[key])[rows], np.asarray(value)[rows], rtol, f"{where}[{key}]")
+
+
+def paired_rollout(device: str, mode: AutoresetMode, rtol: float, num_envs: int = 64, **kwargs) -> None:
+    """Steps the torch env on ``device`` and the numpy vector env from the same seed under the same random actions
+    (``STEPS`` of them, with resets): observations, rewards and every info value within ``rtol`` (relative to the
+    largest of each), flags and codes equal. Under DISABLED, the ended sub-environments are reset by mask."""
+    ours, theirs = make(num_envs, mode, device, **kwargs), make(num_envs, mode, **kwargs)
+    observations, info = ours.reset(seed=7)
+    expected, expected_info = theirs.reset(seed=7)
+    assert observations.dtype == torch.float32 and observations.shape == expected.shape
+    _assert_close(observations, expected, 0.0, "reset")
+    _assert_infos_close(info, expected_info, 0.0, "reset info")
+    rng = np.random.default_rng(0)
+    ended = 0
+    for step in range(STEPS):
+        actions = rng.uniform(-1.5, 1.5, theirs.action_space.shape).astype(np.float32)
+        got = ours.step(torch.from_numpy(actions).to(observations.device))
+        want = theirs.step(actions)
+        where = f"step {step}"
+        assert got[1].dtype == torch.float32 and got[2].dtype == torch.bool and got[3].dtype == torch.bool, where
+        for name, index in (("observations", 0), ("rewards", 1), ("terminated", 2), ("truncated", 3)):
+            _assert_close(got[index], want[index].astype(np.float32) if index == 1 else want[index], rtol, where + name)
+        _assert_infos_close(got[4], want[4], rtol, where)
+        done = want[2] | want[3]
+        ended += int(done.sum())
+        if mode == AutoresetMode.DISABLED and done.any():
+            ours.reset(options={"reset_mask": torch.from_numpy(done)})
+            theirs.reset(options={"reset_mask": done})
+    assert ended >= num_envs, f"only {ended} episodes ended: the resets were not exercised"
+    ours.close()
+    theirs.close()
+
+
+CASES = {
+    "upright": {"task": "upright"},
+    "circle-coulomb": {"task": "circle", "contact": "coulomb", "friction_coefficient": 0.2},
+    "goto-sliding": {"task": "goto", "contact": "sliding", "friction_coefficient": 0.3},
+}
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda mode: mode.value)
+@pytest.mark.parametrize("kwargs", list(CASES.values()), ids=list(CASES))
+def test_cpu_device_gives_the_numpy_env_transitions_to_the_last_bit(kwargs, mode):
+    paired_rollout("cpu", mode, 0.0, num_envs=16, **kwargs)
+
+
+def test_cpu_device_hands_out_the_engine_arrays_without_a_copy():
+    envs = make(4, device="cpu")
+    observations, _ = envs.reset(seed=0)
+    observations, *_, info = envs.step(torch.zeros(envs.action_space.shape))
+    last = envs.unwrapped._last  # the batch's outputs of that step
+    assert observations.data_ptr() == last.observations.ctypes.data
+    assert info["energy"].data_ptr() == last.info[rd.engine.ENERGY].ctypes.data
+    assert info["state"].dtype == torch.float64 and info["state"].shape == (4, 8)
+    assert info["termination"].dtype == torch.int64 and info["is_success"].dtype == torch.bool
+
+
+@pytest.mark.parametrize(
+    "actions",
+    [
+        np.zeros((4, 2)),
+        [[0.5, -0.5]] * 4,
+        torch.zeros((4, 2), dtype=torch.float64),
+        torch.ones((4, 2), dtype=torch.int32),
+    ],
+    ids=["numpy-float64", "list", "float64", "int32"],
+)
+def test_actions_of_another_type_are_converted(actions):
+    envs = make(4, device="cpu")
+    envs.reset(seed=0)
+    reference = make(4)
+    reference.reset(seed=0)
+    observations = envs.step(actions)[0]
+    expected = reference.step(np.clip(np.asarray(actions, dtype=np.float64), -1, 1).astype(np.float32))[0]
+    np.testing.assert_array_equal(observations.numpy(), expected)
+
+
+@pytest.mark.parametrize(
+    ("actions", "message"),
+    [
+        (torch.full((4, 2), float("nan")), "finite"),
+        (torch.zeros((4, 3)), "shape"),
+        (torch.zeros((4, 2), dtype=torch.bool), "finite numbers"),
+        ("left", "tensor or array of numbers"),
+    ],
+    ids=["nan", "shape", "bool", "string"],
+)
+def test_bad_actions_raise_a_clear_error(actions, message):
+    envs = make(4, device="cpu")
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        envs.step(actions)
+
+
+@pytest.mark.parametrize("device", ["tpu", "cuda:7", 3])
+def test_an_unknown_device_raises_a_clear_error(device):
+    with pytest.raises(ValueError, match="device"):
+        make(2, device=device)
+
+
+def test_no_device_keeps_the_numpy_env():
+    envs = make(2)
+    assert isinstance(envs.reset(seed=0)[0], np.ndarray)
