@@ -149,6 +149,30 @@ class DrivenRun:
         return self.env.num_envs * self.steps / (time.perf_counter() - start)
 
 
+def cost_chart(batch: list[list[object]], env: list[list[object]], path) -> None:
+    """The cost per disk-step of each contact model: the driven batches' rows and the circle env's at N = 1024."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    bars = [(f"{row[0]}, N = {row[1]}", float(row[2])) for row in batch]
+    bars += [(f"circle env, {row[0]}, N = {row[1]}", float(row[2])) for row in env if row[1] == 1024]
+    fig, ax = plt.subplots(figsize=(8.0, 0.6 + 0.38 * len(bars)), facecolor="white")
+    names, values = zip(*bars)
+    ax.barh(names, values, color=["tab:blue" if "rolling" in name else "tab:orange" for name in names])
+    for y, value in enumerate(values):
+        ax.text(value, y, f" {value:.0f} ns", va="center", fontsize=7)
+    ax.set_xscale("log")
+    ax.invert_yaxis()
+    ax.tick_params(axis="y", labelsize=7)
+    ax.set_xlabel("ns per disk-step (median; log scale)")
+    ax.set_title(cpu(), fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, facecolor="white")
+    plt.close(fig)
+
+
 def batch_rows(quick: bool) -> list[list[object]]:
     """Nanoseconds per disk-step of a batch of :data:`BATCH_SETUP` under each of :data:`BATCH_CONTACTS`, timed in
     turns, and the cost against the rolling batch's."""
@@ -221,18 +245,17 @@ def main() -> None:
         for name, energy in energies.items()
     ]
     skipped = "Not measured in this run (`--skip-timing`): to be measured on a quiet machine."
-    env_timing = (
-        skipped
-        if args.skip_timing
-        else table(["contact", "N", "ns per disk-step", "x CartPoleVectorEnv"], env_rows(args.quick))
-    )
-    batch_timing = (
-        skipped
-        if args.skip_timing
-        else table(
-            ["contact", "N", "ns per disk-step", "x the rolling batch's time", "disks sliding"], batch_rows(args.quick)
+    env_timing = batch_timing = skipped
+    if not args.skip_timing:
+        batch, env = batch_rows(args.quick), env_rows(args.quick)
+        cost_chart(batch, env, args.out / "contact_cost.png")
+        env_timing = table(["contact", "N", "ns per disk-step", "x CartPoleVectorEnv"], env)
+        batch_timing = "\n\n".join(
+            [
+                table(["contact", "N", "ns per disk-step", "x the rolling batch's time", "disks sliding"], batch),
+                "![the cost per disk-step of each contact](contact_cost.png)",
+            ]
         )
-    )
     timing = (
         skipped
         if args.skip_timing

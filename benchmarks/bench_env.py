@@ -229,29 +229,53 @@ def compile_rows(warm_runs: int) -> tuple[list[list[object]], list[str]]:
     return rows, sorted({name for run in (cold, *warm) for name in run["heavy"]})
 
 
-def chart(sizes, rates, path, cpu: str) -> None:
+def chart(sizes, runs: dict[str, dict[str, list[float]]], path, cpu: str) -> None:
+    """Env steps per second against N (log-log): every task and CartPoleVectorEnv, a line each, for each compile
+    target of the run (``runs``: target -> rates), CartPole once (its numpy code is the same in every process)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    labels = {
-        "upright": ("o-", "RollingDisk-v0, upright (RK4, 8-state exact model)"),
-        "circle": ("^-", "RollingDisk-v0, circle"),
-        "goto": ("v-", "RollingDisk-v0, goto"),
-        "CartPole-v1": ("s--", "CartPole-v1's CartPoleVectorEnv (Euler, 4 states)"),
-    }
-    for name, values in rates.items():
-        style, label = labels[name]
-        ax.loglog(sizes, values, style, label=label)
-    ax.set_title(f"Native vector envs, random actions (median)\n{cpu}", fontsize=8)
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), facecolor="white")
+    markers = {"upright": "o", "circle": "^", "goto": "v"}
+    lines = {"host": "-", "AVX2 (haswell)": "--", "x86-64 baseline (SSE2)": ":"}
+    for target, rates in runs.items():
+        for name, values in rates.items():
+            if name == "CartPole-v1":
+                continue
+            ax.loglog(sizes, values, lines[target], marker=markers[name], markersize=4, label=f"{name}, {target} code")
+    first = next(iter(runs.values()))  # CartPole's numpy env is the same in every target's process
+    ax.loglog(sizes, first["CartPole-v1"], "k-", lw=2.5, alpha=0.5, label="CartPoleVectorEnv (Gymnasium)")
+    ax.set_title(f"Native vector envs against CartPoleVectorEnv, random actions (medians)\n{cpu}", fontsize=8)
     ax.set_xlabel("number of environments N")
     ax.set_ylabel("env steps per second")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=6.5, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, facecolor="white")
+    plt.close(fig)
+
+
+def single_chart(times: dict[str, float], path, cpu: str) -> None:
+    """One ``env.step``'s time, a bar per env."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.0, 3.0), facecolor="white")
+    names, values = list(times), [times[name] * 1e6 for name in times]
+    colors = ["tab:blue" if name.startswith("RollingDisk") else "tab:gray" for name in names]
+    ax.barh(names, values, color=colors)
+    for y, value in enumerate(values):
+        ax.text(value, y, f" {value:.2f} us", va="center", fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xlim(0, max(values) * 1.2)
+    ax.set_xlabel("one env.step through gymnasium.make (us, median)")
+    ax.set_title(cpu, fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, facecolor="white")
     plt.close(fig)
 
 
@@ -283,12 +307,13 @@ def main() -> None:
         [name, f"{value * 1e6:.2f}", f"{value / acrobot:.2f}", f"{value / cartpole:.2f}"]
         for name, value in times.items()
     ]
-    vector = []
+    single_chart(times, args.out / "env_step.png", cpu())
+    vector, runs = [], {}
     for target in TARGETS:
         rates, threads_used, target_cpu = vector_rates_for(target, args.quick)
-        if target == "host":
-            chart(SIZES, rates, args.out / "env_throughput.png", target_cpu)
+        runs[target] = rates
         vector += [f"### Compiled for {target}: {target_cpu}", "", vector_table(rates, threads_used), ""]
+    chart(SIZES, runs, args.out / "env_throughput.png", cpu())
     threads = thread_rows(THREAD_SIZES, seconds, repeats)
     compiled, heavy = compile_rows(warm_runs)
 
@@ -302,6 +327,8 @@ def main() -> None:
             f"## One `env.step` through `gymnasium.make` (median of {repeats} runs of {steps} steps)",
             "",
             table(["env", "us / step", "ratio to Acrobot-v1", "ratio to CartPole-v1"], single),
+            "",
+            "![one env.step](env_step.png)",
             "",
             f"## Native vector envs (median of {repeats} samples of about {seconds:g} s each)",
             "",
