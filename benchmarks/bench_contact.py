@@ -158,7 +158,7 @@ def cost_chart(batch: list[list[object]], env: list[list[object]], path) -> None
 
     bars = [(f"{row[0]}, N = {row[1]}", float(row[2])) for row in batch]
     bars += [(f"circle env, {row[0]}, N = {row[1]}", float(row[2])) for row in env if row[1] == 1024]
-    fig, ax = plt.subplots(figsize=(8.0, 0.6 + 0.38 * len(bars)), facecolor="white")
+    fig, ax = plt.subplots(figsize=(9.5, 0.6 + 0.38 * len(bars)), facecolor="white")
     names, values = zip(*bars)
     ax.barh(names, values, color=["tab:blue" if "rolling" in name else "tab:orange" for name in names])
     for y, value in enumerate(values):
