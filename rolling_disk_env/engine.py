@@ -495,13 +495,9 @@ def hybrid_slope(x, u, law, disk):
     return sliding.friction_derivative(x, u[0], u[1], f1, f2, disk[0], disk[1], disk[2])
 
 
-@kernel
-def hybrid_rk4_step(x, k1, h, u, law, disk):
-    """One classical Runge-Kutta step of ``h`` seconds of a sliding disk (see :func:`hybrid_slope`), ``k1`` its
-    slope at ``x``."""
-    k2 = hybrid_slope(along(x, h / 2, k1), u, law, disk)
-    k3 = hybrid_slope(along(x, h / 2, k2), u, law, disk)
-    k4 = hybrid_slope(along(x, h, k3), u, law, disk)
+@inline_kernel
+def rk4_combined(x, h, k1, k2, k3, k4):
+    """The 10-state ``x`` advanced by ``h`` seconds along the classical Runge-Kutta combination of its four slopes."""
     slope = (
         k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0], k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1],
         k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2], k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3],
@@ -510,6 +506,16 @@ def hybrid_rk4_step(x, k1, h, u, law, disk):
         k1[8] + 2 * k2[8] + 2 * k3[8] + k4[8], k1[9] + 2 * k2[9] + 2 * k3[9] + k4[9],
     )  # fmt: skip
     return along(x, h / 6, slope)
+
+
+@kernel
+def hybrid_rk4_step(x, k1, h, u, law, disk):
+    """One classical Runge-Kutta step of ``h`` seconds of a sliding disk (see :func:`hybrid_slope`), ``k1`` its
+    slope at ``x``."""
+    k2 = hybrid_slope(along(x, h / 2, k1), u, law, disk)
+    k3 = hybrid_slope(along(x, h / 2, k2), u, law, disk)
+    k4 = hybrid_slope(along(x, h, k3), u, law, disk)
+    return rk4_combined(x, h, k1, k2, k3, k4)
 
 
 @inline_kernel
@@ -698,14 +704,7 @@ def slaved_rk4_step(x, k1, w, h, u, mu, disk):
     k2, w = slaved_slope(along(x, h / 2, k1), u, mu, disk, w)
     k3, w = slaved_slope(along(x, h / 2, k2), u, mu, disk, w)
     k4, _ = slaved_slope(along(x, h, k3), u, mu, disk, w)
-    slope = (
-        k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0], k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1],
-        k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2], k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3],
-        k1[4] + 2 * k2[4] + 2 * k3[4] + k4[4], k1[5] + 2 * k2[5] + 2 * k3[5] + k4[5],
-        k1[6] + 2 * k2[6] + 2 * k3[6] + k4[6], k1[7] + 2 * k2[7] + 2 * k3[7] + k4[7],
-        k1[8] + 2 * k2[8] + 2 * k3[8] + k4[8], k1[9] + 2 * k2[9] + 2 * k3[9] + k4[9],
-    )  # fmt: skip
-    return along(x, h / 6, slope)
+    return rk4_combined(x, h, k1, k2, k3, k4)
 
 
 @inline_kernel

@@ -161,15 +161,10 @@ class DeviceBatch(DiskBatch):
 
     def _bundle(self) -> None:
         """The batch's arrays and settings in device memory (copied from the host's)."""
-        split = (self.threads, self.share)
-        shares = (
-            self.lanes.reshape(-1, *split),
-            self.goals.reshape(-1, *split),
-            self.steps.reshape(split),
-            self.error_sums,
-            self.listed,
+        self._device = (
+            tuple(to_device(array) for array in self.shares()),
+            tuple(to_device(array) for array in self.setup),
         )
-        self._device = (tuple(to_device(array) for array in shares), tuple(to_device(array) for array in self.setup))
 
     def _to_host(self) -> None:
         """Copies the batch's arrays from device memory into the host's (no copy under the simulator)."""

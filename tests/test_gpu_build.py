@@ -38,14 +38,7 @@ class _DeviceLayout(DiskBatch):
 def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
     """The argument of kernel ``name`` (a step or the reset) on a batch of ``config``, as host arrays."""
     batch = _DeviceLayout(config, num_envs, 500)
-    split = (batch.threads, batch.share)
-    arrays = (
-        batch.lanes.reshape(-1, *split),
-        batch.goals.reshape(-1, *split),
-        batch.steps.reshape(split),
-        batch.error_sums,
-        batch.listed,
-    )
+    arrays = batch.shares()
     resets = (np.zeros(num_envs, bool), np.zeros((num_envs, 4), np.uint64), batch.uniforms, batch.no_state)
     out = batch.outputs().shares
     if name == "reset":

@@ -411,19 +411,22 @@ class DiskBatch:
         self._bundle()
 
     def _bundle(self) -> None:
-        """The lanes, goals, step counts, error sums and list (:class:`~rolling_disk_env.engine.BatchArrays`, a plain
-        tuple) split into the shares (views), with the settings, in the :class:`~rolling_disk_env.engine.Bundle` the
-        kernels take."""
+        """The batch's :meth:`shares`, with the settings, in the :class:`~rolling_disk_env.engine.Bundle` the kernels
+        take."""
         self._entries = [None] * 4  # the compiled steps, serial or threaded, with resets or without (entry_point)
+        self._arrays = engine.bundle(self.shares(), self.setup)
+
+    def shares(self) -> tuple:
+        """The lanes, goals, step counts, error sums and list (:class:`~rolling_disk_env.engine.BatchArrays`, a plain
+        tuple), split into the shares (views): ``[row, k, i]`` for disk i of share k."""
         split = (self.threads, self.share)
-        shares = (
+        return (
             self.lanes.reshape(-1, *split),
             self.goals.reshape(-1, *split),
             self.steps.reshape(split),
             self.error_sums,
             self.listed,
         )
-        self._arrays = engine.bundle(shares, self.setup)
 
     def reset(
         self, mask: np.ndarray, out: Outputs, rngs: np.ndarray | None = None, states: np.ndarray | None = None
