@@ -104,7 +104,7 @@ def physics_rate(n: int, steps: int) -> float:
     states = np.zeros((8, n))
     states[3], states[5], states[7] = 0.3, 2.0, 1.0  # leaning, rolling, turning
     device_states = gpu.to_device(states)
-    return _median_rate(lambda: gpu.launch(kernel, n, (device_states, steps)), n * steps)
+    return _median_rate(lambda: gpu.launch(kernel, n, device_states, steps), n * steps)
 
 
 def fused_rate(task: str, n: int, steps: int) -> float:
@@ -112,7 +112,7 @@ def fused_rate(task: str, n: int, steps: int) -> float:
     batch.reset(torch.ones(n, dtype=torch.bool), batch.outputs(), batch.rngs)
     batch.step(torch.zeros((n, 2), device=batch.device), batch.outputs())  # leaves zero actions and no reset
     kernel, arguments = _fused(TASKS[task]), batch.step_arguments()
-    return _median_rate(lambda: gpu.launch(kernel, n, (arguments, steps)), n * steps)
+    return _median_rate(lambda: gpu.launch(kernel, n, arguments, steps), n * steps)
 
 
 def env_rate(task: str, n: int, steps: int, device: str | None) -> float:

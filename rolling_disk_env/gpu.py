@@ -113,16 +113,16 @@ def kernel(task: str, name: str):
     return cuda.jit(function) if SIMULATED else cuda.jit(function, cache=True)
 
 
-def launch(function, disks: int, arguments: tuple) -> None:
-    """Runs a kernel on ``disks`` threads, its one argument the tuple ``arguments`` (of device arrays and tuples of
-    them), on torch's current CUDA stream."""
+def launch(function, disks: int, *arguments) -> None:
+    """Runs a kernel on ``disks`` threads with ``arguments`` (device arrays, numbers and tuples of them: the generated
+    kernels take one tuple), on torch's current CUDA stream."""
     threads = min(disks, THREADS_PER_BLOCK)
     blocks = math.ceil(disks / threads)
     if SIMULATED:
-        function[blocks, threads](arguments)
+        function[blocks, threads](*arguments)
     else:
         stream = cuda.external_stream(torch.cuda.current_stream().cuda_stream)
-        function[blocks, threads, stream](arguments)
+        function[blocks, threads, stream](*arguments)
 
 
 class DeviceBatch(DiskBatch):
