@@ -174,7 +174,9 @@ def _train_on_device(args: argparse.Namespace, hyperparams: dict, out: Path) -> 
             threads=args.threads,
             verbose=args.verbose,
         )
-    except (ImportError, RuntimeError) as error:  # no numba-cuda, no GPU
+    except (ImportError, RuntimeError) as error:
+        if not str(error).startswith(("device=", "train.py --device")):  # not a missing extra, GPU or driver
+            raise
         sys.exit(f"train.py: error: {error}")
 
 

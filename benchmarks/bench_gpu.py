@@ -109,6 +109,9 @@ def physics_rate(n: int, steps: int) -> float:
 
 def fused_rate(task: str, n: int, steps: int) -> float:
     batch = gpu.DeviceBatch(EnvConfig.from_kwargs(task=task), n, 500)
+    words = np.random.default_rng(0).integers(0, 2**64, size=(n, 4), dtype=np.uint64, endpoint=False)
+    words[:, 3] |= np.uint64(1)  # any PCG64 state with an odd increment: each disk its own episode
+    batch.seed(list(range(n)), words)
     batch.reset(torch.ones(n, dtype=torch.bool), batch.outputs(), batch.rngs)
     batch.step(torch.zeros((n, 2), device=batch.device), batch.outputs())  # leaves zero actions and no reset
     kernel, arguments = _fused(TASKS[task]), batch.step_arguments()

@@ -72,8 +72,13 @@ _use_package_stamps()
 
 def require_device() -> None:
     """Raises ``RuntimeError`` naming what is missing where no CUDA GPU can run the kernels."""
-    if SIMULATED or cuda.is_available():
+    if SIMULATED or (cuda.is_available() and torch.cuda.is_available()):
         return
+    if cuda.is_available():
+        raise RuntimeError(
+            f'device="cuda": numba-cuda sees a GPU but torch {torch.__version__} was built without CUDA; install '
+            "PyPI's torch==2.13.0 (the CUDA build) for the torch tensors on the GPU"
+        )
     raise RuntimeError(
         'device="cuda" found no CUDA GPU: numba-cuda is installed but sees no NVIDIA driver or device '
         "(numba.cuda.is_available() is False; `nvidia-smi` should list the GPU). Without one, "
@@ -93,14 +98,25 @@ def view(tensor: torch.Tensor):
     return tensor.numpy() if SIMULATED else cuda.as_cuda_array(tensor.detach())
 
 
+def _stream():
+    """torch's current CUDA stream, as numba-cuda's: the kernels and the copies run on it, in order."""
+    return cuda.external_stream(torch.cuda.current_stream().cuda_stream)
+
+
 def to_device(array: np.ndarray):
-    """A host array copied to device memory (the array itself under the simulator)."""
-    return array if SIMULATED else cuda.to_device(np.ascontiguousarray(array))
+    """A host array copied to device memory, on torch's current stream (the array itself under the simulator)."""
+    return array if SIMULATED else cuda.to_device(np.ascontiguousarray(array), stream=_stream())
 
 
 def to_host(array) -> np.ndarray:
-    """A device array copied to host memory (the array itself under the simulator)."""
-    return array if SIMULATED else array.copy_to_host()
+    """A device array copied to host memory once the work queued on torch's current stream is done (the array itself
+    under the simulator)."""
+    if SIMULATED:
+        return array
+    stream = _stream()
+    host = array.copy_to_host(stream=stream)
+    stream.synchronize()
+    return host
 
 
 @functools.cache
@@ -121,8 +137,7 @@ def launch(function, disks: int, *arguments) -> None:
     if SIMULATED:
         function[blocks, threads](*arguments)
     else:
-        stream = cuda.external_stream(torch.cuda.current_stream().cuda_stream)
-        function[blocks, threads, stream](*arguments)
+        function[blocks, threads, _stream()](*arguments)
 
 
 class DeviceBatch(DiskBatch):
@@ -138,6 +153,8 @@ class DeviceBatch(DiskBatch):
         require_device()
         super().__init__(config, num_envs, max_episode_steps)
         self.choice = None
+        # A step limit bounds the step counts within the history (sized for it): no copy of them to look at.
+        self._growing = self._growing and max_episode_steps is None
         self.device = torch_device()
         method = config.integrator if config.contact == "rolling" else "contact"
         self._step_kernel, self._reset_kernel = (
@@ -238,11 +255,14 @@ class DeviceBatch(DiskBatch):
         host = to_host(self.rngs)
         host[rows] = words
         if not SIMULATED:
-            self.rngs.copy_to_device(host)
+            self.rngs.copy_to_device(host, stream=_stream())
 
     def _grow_tracking(self) -> None:
-        """:meth:`DiskBatch._grow_tracking <rolling_disk_env.envs.batch.DiskBatch._grow_tracking>`, from the host's
-        copy of the step counts when it looks at them (every few hundred steps)."""
+        """:meth:`DiskBatch._grow_tracking <rolling_disk_env.envs.batch.DiskBatch._grow_tracking>`: when it looks at
+        the step counts, they are copied to the host, and the other arrays only where the history must grow. (With a
+        step limit the history holds every episode, and the batch never looks: :meth:`__init__`.)"""
         if self._unchecked <= 1:
-            self._to_host()
+            self.steps[:] = to_host(self._device[0][2]).reshape(-1)
+            if int(self.steps[: self.num_envs].max()) + 1 >= self.tracked_steps:
+                self._to_host()
         super()._grow_tracking()

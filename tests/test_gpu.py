@@ -69,9 +69,23 @@ def test_non_finite_actions_raise_and_step_nothing():
     observations, _ = envs.reset(seed=0)
     actions = torch.zeros((4, 2), device=observations.device)
     actions[2, 1] = float("inf")
+    before = envs.unwrapped._batch.states.copy()
     with pytest.raises(ValueError, match=r"finite numbers.*sub-environment 2"):
         envs.step(actions)
+    np.testing.assert_array_equal(envs.unwrapped._batch.states, before)  # nothing stepped
     assert torch.equal(envs.step(torch.zeros_like(actions))[4]["_state"], torch.ones(4, dtype=torch.bool))
+    assert not np.array_equal(envs.unwrapped._batch.states, before)
+
+
+def test_a_partial_reset_after_steps_in_inference_mode():
+    """rsl_rl steps under ``torch.inference_mode()``; the flags kept from those steps must not break a reset after."""
+    envs = make(4, device="cuda")
+    observations, _ = envs.reset(seed=0)
+    with torch.inference_mode():
+        for _ in range(3):
+            envs.step(torch.zeros((4, 2), device=observations.device))
+    envs.reset(options={"reset_mask": torch.tensor([True, False, True, False])})
+    envs.step(torch.zeros((4, 2), device=observations.device))
 
 
 @pytest.mark.skipif(SIMULATED, reason="needs a real GPU: the simulator hands out CPU tensors")

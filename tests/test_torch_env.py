@@ -137,11 +137,12 @@ def test_actions_of_another_type_are_converted(actions):
     ("actions", "message"),
     [
         (torch.full((4, 2), float("nan")), "finite"),
+        (torch.full((4, 2), float("inf"), dtype=torch.float64), "finite"),
         (torch.zeros((4, 3)), "shape"),
         (torch.zeros((4, 2), dtype=torch.bool), "finite numbers"),
         ("left", "tensor or array of numbers"),
     ],
-    ids=["nan", "shape", "bool", "string"],
+    ids=["nan", "inf-float64", "shape", "bool", "string"],
 )
 def test_bad_actions_raise_a_clear_error(actions, message):
     envs = make(4, device="cpu")

@@ -82,6 +82,9 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         else:
             super()._set_rngs(rows, words)
 
+    def _like_ended(self, mask: np.ndarray):
+        return self._tensor(mask) if self._on_gpu else mask
+
     def _tensor(self, array) -> torch.Tensor:
         """``array`` as a tensor on the env's device: a numpy array without a copy on the CPU."""
         return array if isinstance(array, torch.Tensor) else torch.as_tensor(array, device=self.device)
@@ -93,7 +96,9 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
     def _checked_actions(self, actions):
         """The actions as a C-contiguous float32 tensor on the device, clipped to [-1, 1] (the batch checks that they
         are finite); on the CPU, as the CPU batch takes them (a numpy view)."""
-        if not isinstance(actions, torch.Tensor):
+        if isinstance(actions, torch.Tensor):
+            actions = actions.detach()
+        else:
             try:
                 actions = torch.as_tensor(actions)
             except (TypeError, ValueError, RuntimeError) as error:
@@ -104,8 +109,9 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {tuple(actions.shape)}")
         if actions.dtype == torch.bool or actions.is_complex():
             raise ValueError(f"actions must be finite numbers (ints or floats), got a {actions.dtype} tensor")
-        if actions.dtype != torch.float32:  # clipped before the cast, which would make large values inf
-            actions = actions.double().clamp(-1.0, 1.0)
+        if actions.dtype != torch.float32:  # finite values clipped before the cast, which would make large ones inf
+            actions = actions.double()
+            actions = torch.where(torch.isfinite(actions), actions.clamp(-1.0, 1.0), actions)
         actions = actions.to(self.device, torch.float32).contiguous()
         return actions if self._on_gpu else actions.numpy()
 
@@ -113,7 +119,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         options = dict(options or {})
         for key in ("reset_mask", "state"):
             if isinstance(options.get(key), torch.Tensor):
-                options[key] = options[key].cpu().numpy()
+                options[key] = options[key].detach().cpu().numpy()
         observations, infos = super().reset(seed=seed, options=options)
         return self._observations(observations), infos
 

@@ -97,7 +97,7 @@ class RollingDiskVectorEnv(VectorEnv):
             # The others' latest observations, from the info block: the caller may have changed those it was given.
             out.observations[:] = self._last.info[self._batch.observation_rows].T
         self._batch.reset(mask, out, self._rngs, states)
-        self._ended[mask] = False
+        self._ended = self._ended & ~self._like_ended(mask)
         self._last = out
         return out.observations, self._infos(out, mask)  # fresh arrays, as the step's
 
@@ -147,6 +147,10 @@ class RollingDiskVectorEnv(VectorEnv):
         if actions.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
         return actions
+
+    def _like_ended(self, mask: np.ndarray):
+        """A reset mask as the ended flags are kept (a numpy array here)."""
+        return mask
 
     _kept = staticmethod(np.copy)
     """A copy of an output array that the next step does not change."""
