@@ -130,21 +130,18 @@ def main(argv: list[str] | None = None) -> list:
         sys.exit(f"train.py: error: {error}")
     print(f"run directory: {out}", flush=True)
     try:
+        common = {
+            "timesteps": args.timesteps,
+            "n_envs": args.n_envs,
+            "seed": args.seed,
+            "eval_episodes": args.eval_episodes,
+            "threads": args.threads,
+            "verbose": args.verbose,
+        }
         if args.device is not None:
-            results = _train_on_device(args, hyperparams, out)
+            results = _train_on_device(args.task, args.device, hyperparams, out, common)
         else:
-            results = train(
-                args.task,
-                args.algo,
-                hyperparams,
-                out,
-                timesteps=args.timesteps,
-                n_envs=args.n_envs,
-                seed=args.seed,
-                eval_episodes=args.eval_episodes,
-                threads=args.threads,
-                verbose=args.verbose,
-            )
+            results = train(args.task, args.algo, hyperparams, out, **common)
     except ConfigError as error:
         sys.exit(f"train.py: error: {config}: {error}")
     except KeyboardInterrupt:
@@ -155,25 +152,14 @@ def main(argv: list[str] | None = None) -> list:
     return results
 
 
-def _train_on_device(args: argparse.Namespace, hyperparams: dict, out: Path) -> list:
+def _train_on_device(task: str, device: str, hyperparams: dict, out: Path, common: dict) -> list:
     """``--device``: rsl_rl's PPO (``agents.device_training``), with a clear exit where its extra is missing."""
     try:
         from agents.device_training import train_on_device
     except ImportError as error:
         sys.exit(f"train.py: error: {error}")
     try:
-        return train_on_device(
-            args.task,
-            hyperparams,
-            out,
-            device=args.device,
-            timesteps=args.timesteps,
-            n_envs=args.n_envs,
-            seed=args.seed,
-            eval_episodes=args.eval_episodes,
-            threads=args.threads,
-            verbose=args.verbose,
-        )
+        return train_on_device(task, hyperparams, out, device=device, **common)
     except (ImportError, RuntimeError) as error:
         if not str(error).startswith(("device=", "train.py --device")):  # not a missing extra, GPU or driver
             raise

@@ -26,9 +26,8 @@ import torch
 import yaml
 
 import rolling_disk_env as rd
-from agents.baselines import BASELINES
-from agents.evaluate import EVAL_SEED, PassiveAgent, Result, TorchScriptPolicy, evaluate, results_table
-from agents.training import ConfigError, check_env_kwargs, positive_int
+from agents.evaluate import Result, TorchScriptPolicy
+from agents.training import ConfigError, check_env_kwargs, positive_int, write_results
 
 try:
     from rsl_rl.env import VecEnv
@@ -158,19 +157,6 @@ def train_on_device(
 
     evaluated = {"task": task, **env_kwargs}
     trained = num_envs * steps_per_env * iterations
+    title = f"{task}: PPO (rsl_rl) on {device}, seed {seed}, {trained} steps in {minutes:.1f} min ({num_envs} envs)"
     policy = TorchScriptPolicy(out / "policy.pt")
-    results = [
-        evaluate(policy, f"PPO (rsl_rl, {device}, {trained} steps)", eval_episodes, **evaluated),
-        evaluate(PassiveAgent(), "passive disk (zero torque)", eval_episodes, **evaluated),
-    ]
-    if task in BASELINES:
-        baseline = BASELINES[task]
-        results.append(evaluate(baseline(**evaluated), f"baseline: {baseline.__name__}", eval_episodes, **evaluated))
-    header = (
-        f"# {task}: PPO (rsl_rl) on {device}, seed {seed}, {trained} steps in {minutes:.1f} min "
-        f"({num_envs} envs)\n\n"
-        f"{eval_episodes} evaluation episodes (seeds {EVAL_SEED} to {EVAL_SEED + eval_episodes - 1}),"
-        " deterministic actions.\n\n"
-    )
-    (out / "results.md").write_text(header + results_table(results) + "\n")
-    return results
+    return write_results(out, title, policy, f"PPO (rsl_rl, {device}, {trained} steps)", eval_episodes, evaluated)

@@ -389,23 +389,33 @@ def train(
     if normalization is not None:
         env.save(str(out / "vecnormalize.pkl"))
 
+    trained = NormalizedPolicy(model, env if normalization is not None else None)
+    title = f"{task}: {algo.upper()}, seed {seed}, {model.num_timesteps} steps in {minutes:.1f} min"
+    return write_results(
+        out,
+        title + (" (interrupted)" if interrupted else ""),
+        trained,
+        f"{algo.upper()} (trained, {model.num_timesteps} steps)",
+        eval_episodes,
+        evaluated,
+    )
+
+
+def write_results(out: Path, title: str, agent, name: str, episodes: int, evaluated: dict) -> list[Result]:
+    """The final evaluation of a run: ``agent`` (called ``name``), the passive disk and the task's classical baseline
+    (if it has one: :data:`agents.baselines.BASELINES`) over the same ``episodes`` seeded episodes of the env
+    ``evaluated`` (``task`` and the env's keyword arguments), written under ``title`` to ``out/results.md``."""
     results = [
-        evaluate(
-            NormalizedPolicy(model, env if normalization is not None else None),
-            f"{algo.upper()} (trained, {model.num_timesteps} steps)",
-            eval_episodes,
-            **evaluated,
-        ),
-        evaluate(PassiveAgent(), "passive disk (zero torque)", eval_episodes, **evaluated),
+        evaluate(agent, name, episodes, **evaluated),
+        evaluate(PassiveAgent(), "passive disk (zero torque)", episodes, **evaluated),
     ]
+    task = evaluated["task"]
     if task in BASELINES:
         baseline = BASELINES[task]
-        results.append(evaluate(baseline(**evaluated), f"baseline: {baseline.__name__}", eval_episodes, **evaluated))
+        results.append(evaluate(baseline(**evaluated), f"baseline: {baseline.__name__}", episodes, **evaluated))
     header = (
-        f"# {task}: {algo.upper()}, seed {seed}, {model.num_timesteps} steps in {minutes:.1f} min"
-        f"{' (interrupted)' if interrupted else ''}\n\n"
-        f"{eval_episodes} evaluation episodes (seeds {EVAL_SEED} to {EVAL_SEED + eval_episodes - 1}),"
-        " deterministic actions.\n\n"
+        f"# {title}\n\n"
+        f"{episodes} evaluation episodes (seeds {EVAL_SEED} to {EVAL_SEED + episodes - 1}), deterministic actions.\n\n"
     )
     (out / "results.md").write_text(header + results_table(results) + "\n")
     return results
