@@ -50,3 +50,20 @@ def test_off_policy_algorithms_train_from_their_configs(tmp_path, algo):
     train.main(["--algo", algo, "--timesteps", "300", "--out", str(tmp_path), "--eval-episodes", "2"])
     assert (tmp_path / "model.zip").exists()
     assert np.isfinite(evaluate(load_agent(tmp_path / "model.zip"), algo, episodes=2).returns).all()
+
+
+def test_a_torchscript_policy_loads_and_acts(tmp_path):
+    """``agents.evaluate --model policy.pt`` (``train.py --device``'s export): a TorchScript module of observations to
+    actions, run on the CPU."""
+    import torch
+
+    from agents.evaluate import TorchScriptPolicy, load_agent
+
+    module = torch.nn.Linear(4, 2)
+    torch.nn.init.constant_(module.weight, 0.5)
+    torch.nn.init.constant_(module.bias, -1.0)
+    torch.jit.script(module).save(str(tmp_path / "policy.pt"))
+    agent = load_agent(tmp_path / "policy.pt")
+    assert isinstance(agent, TorchScriptPolicy)
+    actions, _ = agent.predict(np.ones((3, 4), dtype=np.float32))
+    np.testing.assert_allclose(actions, np.full((3, 2), 1.0))  # 4 * 0.5 - 1
