@@ -201,12 +201,6 @@ class DeviceBatch(DiskBatch):
         self._to_host()
         return super().states
 
-    @property
-    def disks(self) -> np.ndarray:
-        """The disks' constants (m, g, r), (3, N): a host copy."""
-        self._to_host()
-        return super().disks
-
     def outputs(self, zeroed: bool = True) -> Outputs:
         """The batch's output tensors, written in place by every step and reset (``zeroed`` has no effect: a reset
         writes the disks it starts and leaves the others' latest outputs)."""
@@ -217,7 +211,8 @@ class DeviceBatch(DiskBatch):
 
     def reset(self, mask, out: Outputs, rngs=None, states: np.ndarray | None = None) -> None:
         """Starts new episodes in the disks of ``mask`` (a bool array or tensor), drawn from ``rngs`` (:attr:`rngs`;
-        None: the uniforms as they are), or from the host's ``states``, writing into ``out`` (:meth:`outputs`)."""
+        None: the device's uniforms as the latest reset left them: the host's :attr:`uniforms` are not copied), or
+        from the host's ``states``, writing into :meth:`outputs` (``out`` is that)."""
         self._mask.copy_(torch.as_tensor(mask))
         rngs = self._no_rngs if rngs is None else rngs
         given = self._no_state if states is None else to_device(given_states(states))
