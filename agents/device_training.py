@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import logging
 import math
 import os
 import shlex
@@ -36,6 +37,7 @@ try:
 except ImportError as error:
     raise ImportError(f'train.py --device needs rsl-rl-lib: pip install torch==2.13.0 -e ".[gpu]" ({error})') from error
 
+log = logging.getLogger(__name__)
 RUNNER_KEYS = frozenset({"num_envs", "num_steps_per_env", "max_iterations", "env_kwargs"})
 """The keys of a block that :func:`train_on_device` reads itself; the others go to rsl_rl's runner as they are."""
 
@@ -51,9 +53,12 @@ class RslRlVecEnv(VecEnv):
         device: ``"cuda"`` or ``"cpu"``, the torch env's device.
         seed: the first disk's seed (disk i: seed + i).
         env_kwargs: the env's keyword arguments.
+        steps_per_iteration: rsl_rl's ``num_steps_per_env``: the success rate is logged once an iteration.
     """
 
-    def __init__(self, task: str, num_envs: int, device: str, seed: int, env_kwargs: dict):
+    def __init__(
+        self, task: str, num_envs: int, device: str, seed: int, env_kwargs: dict, steps_per_iteration: int = 1
+    ):
         self.env = gym.make_vec(
             rd.TASK_IDS[task],
             num_envs=num_envs,
@@ -68,20 +73,37 @@ class RslRlVecEnv(VecEnv):
         self.device = self.env.unwrapped.device
         self.cfg = {"task": task, "num_envs": num_envs, "device": str(device), **env_kwargs}
         self._observations, _ = self.env.reset(seed=seed)
-        self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long, device=self.device)
+        self._steps_per_iteration, self._steps = steps_per_iteration, 0
+        self._successes = torch.zeros((), dtype=torch.float32, device=self.device)
+        self._ended = torch.zeros((), dtype=torch.float32, device=self.device)
+
+    @property
+    def episode_length_buf(self) -> torch.Tensor:
+        """(N,) int64: each disk's steps in its episode, the env's own counters (a view): rsl_rl's
+        ``init_at_random_ep_len`` sets them, and the disks then truncate at different steps."""
+        return self.env.unwrapped.steps
+
+    @episode_length_buf.setter
+    def episode_length_buf(self, value: torch.Tensor) -> None:
+        self.env.unwrapped.steps = value
 
     def get_observations(self) -> TensorDict:
         return TensorDict({"policy": self._observations}, batch_size=[self.num_envs])
 
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        """A step; the success rate of the episodes that ended in an iteration (``steps_per_iteration`` steps) goes to
+        ``extras["log"]`` at its last step, summed and counted on the device (no read of the flags a step)."""
         self._observations, rewards, terminated, truncated, info = self.env.step(actions)
         dones = terminated | truncated
-        self.episode_length_buf = torch.where(dones, 0, self.episode_length_buf + 1)
         extras = {"time_outs": truncated & ~terminated, "log": {}}
-        if "final_info" in info:
+        if "final_info" in info:  # on the GPU at every step, its mask False where nothing ended
             ended = info["_final_info"]
-            successes = info["final_info"]["is_success"][ended]
-            extras["log"]["/success_rate"] = successes.float().mean()
+            self._successes += (info["final_info"]["is_success"] & ended).sum()
+            self._ended += ended.sum()
+        self._steps += 1
+        if self._steps % self._steps_per_iteration == 0:
+            extras["log"]["/success_rate"] = self._successes / self._ended.clamp(min=1.0)
+            self._successes, self._ended = torch.zeros_like(self._successes), torch.zeros_like(self._ended)
         return self.get_observations(), rewards, dones.long(), extras
 
     def close(self) -> None:
@@ -132,7 +154,11 @@ def train_on_device(
     missing = sorted({"algorithm", "actor", "critic"} - runner_cfg.keys())
     if missing:
         raise ConfigError(f"the block has no {missing}: rsl_rl's runner needs them")
-    runner_cfg.update(num_steps_per_env=steps_per_env, save_interval=iterations, logger="tensorboard")
+    # No NaN check of rsl_rl's (two reads of the device a step): the kernels end an episode whose state leaves the
+    # model's domain, and the observations are clipped to their bounds.
+    runner_cfg.update(
+        num_steps_per_env=steps_per_env, save_interval=iterations, logger="tensorboard", check_for_nan=False
+    )
     runner_cfg.setdefault("obs_groups", {"actor": ["policy"], "critic": ["policy"]})
 
     torch.manual_seed(seed)
@@ -143,7 +169,9 @@ def train_on_device(
     (out / "command.txt").write_text(shlex.join([sys.executable, *sys.argv]) + "\n")
     (out / "algo.txt").write_text("rsl_rl_ppo\n")
 
-    env = RslRlVecEnv(task, num_envs, device, seed, env_kwargs)
+    start = time.perf_counter()
+    env = RslRlVecEnv(task, num_envs, device, seed, env_kwargs, steps_per_env)
+    log.info("the env of %d disks on %s made and reset in %.1f s", num_envs, device, time.perf_counter() - start)
     with contextlib.ExitStack() as stack:
         if not verbose:  # rsl_rl prints its models and a table an iteration
             stack.enter_context(contextlib.redirect_stdout(stack.enter_context(open(os.devnull, "w"))))
@@ -151,6 +179,7 @@ def train_on_device(
         start = time.perf_counter()
         runner.learn(iterations)
         minutes = (time.perf_counter() - start) / 60
+    log.info("%d iterations of rsl_rl trained in %.1f s (the first step compiles)", iterations, 60 * minutes)
     env.close()
     runner.save(str(out / "model.pt"))
     runner.export_policy_to_jit(str(out), "policy.pt")
@@ -159,4 +188,7 @@ def train_on_device(
     trained = num_envs * steps_per_env * iterations
     title = f"{task}: PPO (rsl_rl) on {device}, seed {seed}, {trained} steps in {minutes:.1f} min ({num_envs} envs)"
     policy = TorchScriptPolicy(out / "policy.pt")
-    return write_results(out, title, policy, f"PPO (rsl_rl, {device}, {trained} steps)", eval_episodes, evaluated)
+    start = time.perf_counter()
+    results = write_results(out, title, policy, f"PPO (rsl_rl, {device}, {trained} steps)", eval_episodes, evaluated)
+    log.info("the final evaluation (%d episodes, on the CPU) took %.1f s", eval_episodes, time.perf_counter() - start)
+    return results

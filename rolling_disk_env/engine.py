@@ -223,6 +223,80 @@ class ResetArrays(NamedTuple):
     given: np.ndarray
 
 
+NEXT_STEP, SAME_STEP, DISABLED = range(3)
+"""The autoreset modes (Gymnasium's ``AutoresetMode``) as the device's step kernels take them
+(``DeviceControl.mode``)."""
+
+
+class DeviceControl(NamedTuple):
+    """What a device step kernel (``_generated/cuda.py``, a GPU thread a disk of a batch of N shares of one disk) reads
+    and writes beside the batch, so that a step needs nothing from the host but its actions: the autoreset is decided
+    on the device (:func:`device_step_due`, :func:`device_step_ended`).
+
+    Attributes:
+        status: (2,) int64: the first disk whose action is not finite, and under DISABLED the first disk that has
+            ended; N where there is none. Written by the device's check before the step (``rolling_disk_env.gpu``):
+            where either is below N, the step steps nothing.
+        ended: (N,) bool, the disks whose episode ended at their latest step (never set under SAME_STEP, whose
+            disks start again at once).
+        rewards: (N,) float32, the step's rewards.
+        dones: (2, N) bool, the step's flags terminated and truncated, as the step ended (before a same-step reset).
+        final: the :class:`OutputArrays` (split into N shares) of the disks' last outputs, where they ended
+            (SAME_STEP).
+        final_mask: (N,) bool, the disks whose episode the step ended (SAME_STEP).
+        mode: :data:`NEXT_STEP`, :data:`SAME_STEP` or :data:`DISABLED`.
+    """
+
+    status: np.ndarray
+    ended: np.ndarray
+    rewards: np.ndarray
+    dones: np.ndarray
+    final: tuple
+    final_mask: np.ndarray
+    mode: int
+
+
+@inline_kernel
+def device_step_due(k, control, mask) -> bool:
+    """Whether disk k of a device batch steps (not where the check found a non-finite action, or under DISABLED an
+    ended disk: then no disk steps), and its entry of the resets' ``mask``: under NEXT_STEP a disk whose episode ended
+    at its previous step starts a new one in this step, its action ignored; otherwise no disk yet."""
+    status, ended, mode = control[0], control[1], control[6]
+    if status[0] < ended.shape[0] or status[1] < ended.shape[0]:
+        return False
+    mask[k] = ended[k] and mode == NEXT_STEP
+    return True
+
+
+@inline_kernel
+def device_step_ended(k, out, control, mask) -> bool:
+    """After disk k's step (and its next-step reset): its reward as float32 and its flags terminated and truncated
+    into ``control``, and whether its episode ended; under SAME_STEP, where it ended, its outputs kept in
+    ``control.final`` and its entry of the resets' ``mask`` set: returns True where the disk must start its next
+    episode now (the kernel then resets it)."""
+    observations, info, flags, codes = out
+    _, ended, rewards, dones, final, final_mask, mode = control
+    terminated, truncated = flags[TERMINATED, k, 0], flags[TRUNCATED, k, 0]
+    rewards[k] = np.float32(info[REWARD, k, 0])
+    dones[0, k], dones[1, k] = terminated, truncated
+    now = terminated or truncated
+    if mode != SAME_STEP:
+        ended[k] = now
+        return False
+    final_mask[k] = now
+    if now:
+        kept_observations, kept_info, kept_flags, kept_codes = final
+        for j in range(observations.shape[2]):
+            kept_observations[k, 0, j] = observations[k, 0, j]
+        for j in range(info.shape[0]):
+            kept_info[j, k, 0] = info[j, k, 0]
+        for j in range(flags.shape[0]):
+            kept_flags[j, k, 0] = flags[j, k, 0]
+        kept_codes[k, 0] = codes[k, 0]
+        mask[k] = True
+    return now
+
+
 @inline_kernel
 def action_torques(actions, actuators, lanes, k, disks):
     """Writes the torques (N m) and the effort (the mean squared clipped action) of the ``disks`` disks of share k into

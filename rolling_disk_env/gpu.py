@@ -24,13 +24,16 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import logging
 import math
+import time
 
 import numba
 import numpy as np
 import torch
 
-from rolling_disk_env.envs.batch import DiskBatch, Outputs, given_states
+from rolling_disk_env import engine
+from rolling_disk_env.envs.batch import GIVEN_SIZE, DiskBatch, Outputs, given_states
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.jit import _PackageStamp
 
@@ -42,6 +45,7 @@ if importlib.util.find_spec("numba_cuda") is None:  # numba's own numba.cuda is 
 from numba import cuda  # numba-cuda's (checked above)
 from numba.cuda.core import caching as cuda_caching
 
+log = logging.getLogger(__name__)
 SIMULATED = bool(numba.config.ENABLE_CUDASIM)
 """Whether numba-cuda's simulator runs the kernels (``NUMBA_ENABLE_CUDASIM=1``): on the CPU, with host memory."""
 THREADS_PER_BLOCK = 128
@@ -100,7 +104,13 @@ def view(tensor: torch.Tensor):
 
 def _stream():
     """torch's current CUDA stream, as numba-cuda's: the kernels and the copies run on it, in order."""
-    return cuda.external_stream(torch.cuda.current_stream().cuda_stream)
+    return _external_stream(torch.cuda.current_stream().cuda_stream)
+
+
+@functools.lru_cache(maxsize=16)
+def _external_stream(handle: int):
+    """numba-cuda's view of the CUDA stream ``handle`` (made once: a step asks for it every time)."""
+    return cuda.external_stream(handle)
 
 
 def to_device(array: np.ndarray):
@@ -125,63 +135,227 @@ def kernel(task: str, name: str):
     disk (under the simulator, run in Python). numba-cuda compiles it at its first launch."""
     from rolling_disk_env._generated import cuda as kernels
 
-    function = getattr(kernels, f"{task}_{name}")
+    return _jit(getattr(kernels, f"{task}_{name}"))
+
+
+def _jit(function):
+    """``function`` as a CUDA kernel, cached on disk (under the simulator, run in Python)."""
     return cuda.jit(function) if SIMULATED else cuda.jit(function, cache=True)
 
 
-def launch(function, disks: int, *arguments) -> None:
-    """Runs a kernel on ``disks`` threads with ``arguments`` (device arrays, numbers and tuples of them: the generated
-    kernels take one tuple), on torch's current CUDA stream."""
+def _blocks(disks: int) -> tuple[int, int]:
+    """Blocks and threads of a launch over ``disks`` threads."""
     threads = min(disks, THREADS_PER_BLOCK)
-    blocks = math.ceil(disks / threads)
+    return math.ceil(disks / threads), threads
+
+
+def launch(function, disks: int, *arguments) -> None:
+    """Runs a kernel on ``disks`` threads with ``arguments`` (device arrays, numbers and tuples of them), on torch's
+    current CUDA stream: numba-cuda's own launch, which types and converts the arguments every time (about 250 us for
+    a step kernel's). The env's kernels launch through :class:`Launch` instead."""
+    _numba_launch(function, *_blocks(disks), arguments)
+
+
+def _numba_launch(function, blocks: int, threads: int, arguments: tuple) -> None:
+    """numba-cuda's launch of ``function`` on torch's current stream."""
     if SIMULATED:
         function[blocks, threads](*arguments)
     else:
         function[blocks, threads, _stream()](*arguments)
 
 
-class DeviceBatch(DiskBatch):
-    """A :class:`~rolling_disk_env.envs.batch.DiskBatch` on the GPU: N shares of one disk, in device memory, stepped
-    and reset by its task's CUDA kernels, a thread a disk.
+class Launch:
+    """The launches of a kernel over ``disks`` threads, always with the same ``arguments`` (device arrays, numbers and
+    tuples of them: the kernel reads and writes the arrays' memory, which the caller fills in place), resolved once.
 
-    The same arguments and methods as the CPU batch, with torch tensors on :func:`torch_device` for the actions, the
-    reset masks and the outputs: :meth:`outputs` returns the same tensors every time (the kernels write them in
-    place; their views for the kernels are made once), and ``rngs`` are :attr:`rngs`. Not picklable.
+    numba-cuda's launch types the arguments, converts them to the kernel's parameters and looks up the compiled kernel
+    at every call (about 250 us for a step kernel's nested tuple of 21 arrays). Here the first call compiles the
+    kernel (or loads it from the cache) and converts the parameters once, with numba-cuda's own conversion; each call
+    then hands the same parameters to the driver (``cuda.core.launch``) on torch's current stream. Where that cannot be
+    done (another numba-cuda's internals), the launches are numba-cuda's own, logged once. Under the simulator a call
+    is numba-cuda's own.
+
+    Attributes:
+        compiled: numba-cuda's compiled kernel, once launched on a GPU (its ``regs_per_thread`` and
+            ``local_mem_per_thread``); None before, and under the simulator.
     """
 
-    def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None):
+    def __init__(self, function, disks: int, arguments: tuple):
+        self.function, self.arguments = function, arguments
+        self.blocks, self.threads = _blocks(disks)
+        self.compiled = None
+        self._resolved = SIMULATED or None  # True: numba-cuda's own launches; else (launch, config, kernel, parameters)
+
+    def __call__(self) -> None:
+        if self._resolved is None:
+            self._resolved = self._resolve()
+        elif self._resolved is True:
+            _numba_launch(self.function, self.blocks, self.threads, self.arguments)
+        else:
+            driver_launch, config, kernel, parameters = self._resolved
+            driver_launch(_stream(), config, kernel, *parameters)
+
+    def _resolve(self):
+        """Launches the kernel compiled for the arguments' types (or loaded from the cache) with its parameters,
+        converted once, and returns those; or, where only numba-cuda's own launch can run it, launches that and
+        returns True."""
+        types = tuple(self.function.typeof_pyval(value) for value in self.arguments)
+        start = time.perf_counter()
+        self.compiled = self.function.compile(types)
+        seconds = time.perf_counter() - start
+        if seconds > 1.0:  # compiled, not loaded from the cache
+            name = getattr(self.function, "__name__", "kernel")
+            device = cuda.get_current_device().name
+            device = device.decode() if isinstance(device, bytes) else device
+            log.info("compiled the CUDA kernel %s for %s in %.1f s (cached for later runs)", name, device, seconds)
+        try:
+            from cuda.core import LaunchConfig
+            from cuda.core import launch as driver_launch
+
+            parameters, kept = [], []
+            for kind, value in zip(self.compiled.argument_types, self.arguments):
+                self.compiled._prepare_args(kind, value, 0, kept, parameters)
+            kernel = self.compiled._codelibrary.get_cufunc().kernel
+            resolved = (driver_launch, LaunchConfig(grid=self.blocks, block=self.threads), kernel, tuple(parameters))
+            driver_launch(_stream(), resolved[1], kernel, *resolved[3])
+        except (ImportError, AttributeError, TypeError) as error:  # before the launch: nothing ran
+            log.warning("numba-cuda's own launches for %s (parameters not resolved once: %s)", types, error)
+            _numba_launch(self.function, self.blocks, self.threads, self.arguments)
+            return True
+        return resolved
+
+
+def _check(actions, ended, disabled, status):
+    """Disk k's part of the check before a step (:attr:`DeviceBatch.status`): ``status[0]`` becomes the first disk
+    whose action (a row of ``actions``) is not finite, and where ``disabled`` (DISABLED autoreset) ``status[1]`` the
+    first disk that has ended; both hold N before (none)."""
+    k = cuda.grid(1)
+    if k < actions.shape[0]:
+        for j in range(actions.shape[1]):
+            if not math.isfinite(actions[k, j]):
+                cuda.atomic.min(status, 0, k)
+        if disabled and ended[k]:
+            cuda.atomic.min(status, 1, k)
+
+
+class DeviceBatch(DiskBatch):
+    """A :class:`~rolling_disk_env.envs.batch.DiskBatch` on the GPU: N shares of one disk, in device memory, stepped
+    and reset by its task's CUDA kernels, a thread a disk, with the autoreset decided on the device.
+
+    A step is a copy of the actions into the batch's buffer, two launches (the check of the actions, then the step,
+    which writes every output the env hands out, the same-step resets included) and one copy of the outputs that must
+    be fresh; the host then reads one status word (:meth:`step`). Its buffers are made once, and the kernels'
+    parameters resolved once (:class:`Launch`): nothing else crosses between host and device.
+
+    Args:
+        config: the env's checked settings.
+        num_envs: N.
+        max_episode_steps: steps before the kernels truncate an episode (None: never).
+        mode: the autoreset mode (``engine.NEXT_STEP``, ``engine.SAME_STEP`` or ``engine.DISABLED``).
+
+    Attributes (torch tensors on :attr:`device`, written in place by the kernels):
+        out: the outputs of the latest step or reset (:class:`~rolling_disk_env.envs.batch.Outputs`; the
+            observations a view of the block that :meth:`step` copies).
+        final: SAME_STEP's last outputs of the disks that ended at the latest step (the rows of :attr:`final_mask`).
+        final_mask: (N,) bool.
+        ended: (N,) bool, the disks whose episode ended at their latest step (NEXT_STEP and DISABLED).
+        steps: (N,) int64, each disk's steps in its episode (it truncates at ``max_episode_steps``); writable.
+        status: (2,) int64, the check's word (:class:`~rolling_disk_env.engine.DeviceControl`).
+    Not picklable.
+    """
+
+    def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None, mode: int = engine.NEXT_STEP):
         require_device()
         super().__init__(config, num_envs, max_episode_steps)
         self.choice = None
         # A step limit bounds the step counts within the history (sized for it): no copy of them to look at.
         self._growing = self._growing and max_episode_steps is None
         self.device = torch_device()
+        n, size = num_envs, self.observation_size
         method = config.integrator if config.contact == "rolling" else "contact"
-        self._step_kernel, self._reset_kernel = (
-            kernel(config.task.name, f"step_{method}"),
-            kernel(config.task.name, "reset"),
-        )
+        self._kernels = (kernel(config.task.name, f"step_{method}"), kernel(config.task.name, "reset"), _jit(_check))
+        self.mode = mode
+        # What a step hands out fresh, in one block (one copy): the observations and rewards (float32), terminated and
+        # truncated.
+        self._fresh = torch.zeros(4 * n * size + 4 * n + 2 * n, dtype=torch.uint8, device=self.device)
+        observations, self.rewards, self.dones = self._fresh_views(self._fresh)
         host = super().outputs()
-        self._out = Outputs(num_envs, tuple(torch.from_numpy(array).to(self.device) for array in host.shares))
-        self._out_views = tuple(view(tensor) for tensor in self._out.shares)
-        self._actions = torch.zeros((num_envs, config.action_space.shape[0]), dtype=torch.float32, device=self.device)
-        self._mask = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
-        self._views = (view(self._actions), view(self._mask))
-        self.rngs = to_device(np.zeros((num_envs, 4), dtype=np.uint64))
+        on_device = tuple(torch.from_numpy(array).to(self.device) for array in host.shares[1:])
+        self.out = Outputs(n, (observations.view(n, 1, size), *on_device))
+        self.final = Outputs(n, tuple(torch.zeros_like(array) for array in self.out.shares))
+        self.final_mask = torch.zeros(n, dtype=torch.bool, device=self.device)
+        self.ended = torch.zeros(n, dtype=torch.bool, device=self.device)
+        self.status = torch.full((2,), n, dtype=torch.int64, device=self.device)
+        self.actions = torch.zeros((n, config.action_space.shape[0]), dtype=torch.float32, device=self.device)
+        self.mask = torch.zeros(n, dtype=torch.bool, device=self.device)
+        self.given = torch.full((n, GIVEN_SIZE), math.nan, dtype=torch.float64, device=self.device)
+        self._given = False  # whether given holds states (else NaN)
+        self.rngs = to_device(np.zeros((n, 4), dtype=np.uint64))
         """The disks' PCG64 states (:mod:`rolling_disk_env.pcg64`) in device memory, advanced by the resets."""
-        self._uniforms, self._no_state = to_device(self.uniforms), to_device(self.no_state)
-        self._no_rngs = to_device(self._no_rngs)
+        self._uniforms = to_device(self.uniforms)
+        if SIMULATED:
+            self._status_host = self.status
+        else:
+            self._status_host = torch.empty(2, dtype=torch.int64, pin_memory=True)
+            self._read = torch.cuda.Event()
+        self._status_word = self._status_host.numpy()
+
+    def _fresh_views(self, block: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """The observations (N, size) float32, rewards (N,) float32 and flags terminated and truncated (2, N) of a
+        block of :attr:`_fresh`'s layout."""
+        n, size = self.num_envs, self.observation_size
+        ends = (4 * n * size, 4 * n * size + 4 * n)
+        return (
+            block[: ends[0]].view(torch.float32).view(n, size),
+            block[ends[0] : ends[1]].view(torch.float32),
+            block[ends[1] :].view(torch.bool).view(2, n),
+        )
 
     def _layout(self, num_envs: int) -> tuple[int, int]:
         """A share a disk: thread k of a kernel steps share k."""
         return num_envs, 1
 
     def _bundle(self) -> None:
-        """The batch's arrays and settings in device memory (copied from the host's)."""
+        """The batch's arrays and settings in device memory (copied from the host's); the launches are resolved again
+        at the next step or reset."""
         self._device = (
             tuple(to_device(array) for array in self.shares()),
             tuple(to_device(array) for array in self.setup),
         )
+        self._launches = None
+
+    @functools.cached_property
+    def steps_tensor(self) -> torch.Tensor:
+        """(N,) int64: each disk's steps in its current episode, a view of device memory (the kernels truncate an
+        episode when it reaches ``max_episode_steps``; writing it moves the disks within their episodes)."""
+        steps = self._device[0][2]
+        return (torch.from_numpy(steps) if SIMULATED else torch.as_tensor(steps, device=self.device)).view(-1)
+
+    def _prepared(self) -> tuple[Launch, Launch, Launch]:
+        """The launches of the step, the reset and the check, with the arguments of :class:`DeviceBatch`'s buffers."""
+        if self._launches is None:
+            n = self.num_envs
+            out = tuple(view(array) for array in self.out.shares)
+            final = tuple(view(array) for array in self.final.shares)
+            resets = (view(self.mask), self.rngs, self._uniforms, view(self.given))
+            control = (
+                view(self.status), view(self.ended), view(self.rewards), view(self.dones), final,
+                view(self.final_mask), self.mode,
+            )  # fmt: skip
+            step, reset, check = self._kernels
+            actions, disabled = view(self.actions), self.mode == engine.DISABLED
+            self._launches = (
+                Launch(step, n, ((actions, *self._device, out, resets, control),)),
+                Launch(reset, n, ((resets, *self._device, out),)),
+                Launch(check, n, (actions, view(self.ended), disabled, view(self.status))),
+            )
+        return self._launches
+
+    @property
+    def step_arguments(self) -> tuple:
+        """The step kernel's argument, ``(actions, batch, setup, out, resets, control)``: the views of the batch's
+        buffers (:class:`~rolling_disk_env.engine.DeviceControl` for ``control``)."""
+        return self._prepared()[0].arguments[0]
 
     def _to_host(self) -> None:
         """Copies the batch's arrays from device memory into the host's (no copy under the simulator)."""
@@ -195,6 +369,17 @@ class DeviceBatch(DiskBatch):
         )
         self.error_sums, self.listed = error_sums, listed
 
+    def load(self, batch: DiskBatch) -> None:
+        """Sets the disks' lanes, goals and step counts to those of the CPU ``batch`` of the same configuration and N,
+        so that both step from the same states (teacher-forced comparisons of the two targets)."""
+        n = self.num_envs
+        for device, host in zip(self._device[0][:3], (batch.lanes, batch.goals, batch.steps)):
+            values = np.ascontiguousarray(host[..., :n]).reshape(device.shape)
+            if SIMULATED:
+                device[...] = values
+            else:
+                device.copy_to_device(values, stream=_stream())
+
     @property
     def states(self) -> np.ndarray:
         """The disks' rolling states, (8, N): a host copy."""
@@ -202,46 +387,59 @@ class DeviceBatch(DiskBatch):
         return super().states
 
     def outputs(self, zeroed: bool = True) -> Outputs:
-        """The batch's output tensors, written in place by every step and reset (``zeroed`` has no effect: a reset
-        writes the disks it starts and leaves the others' latest outputs)."""
-        return self._out
+        """The batch's outputs, :attr:`out` (``zeroed`` has no effect: a reset writes the disks it starts and leaves
+        the others' latest outputs)."""
+        return self.out
 
     def __getstate__(self):
         raise TypeError("a DeviceBatch lives in device memory: it cannot be pickled")
 
-    def reset(self, mask, out: Outputs, rngs=None, states: np.ndarray | None = None) -> None:
-        """Starts new episodes in the disks of ``mask`` (a bool array or tensor), drawn from ``rngs`` (:attr:`rngs`;
-        None: the device's uniforms as the latest reset left them: the host's :attr:`uniforms` are not copied), or
-        from the host's ``states``, writing into :meth:`outputs` (``out`` is that)."""
-        self._mask.copy_(torch.as_tensor(mask))
-        rngs = self._no_rngs if rngs is None else rngs
-        given = self._no_state if states is None else to_device(given_states(states))
-        resets = (self._views[1], rngs, self._uniforms, given)
-        launch(self._reset_kernel, self.num_envs, (resets, *self._device, self._out_views))
+    def reset(self, mask: torch.Tensor | None, states: np.ndarray | None = None) -> None:
+        """Starts new episodes in the disks of ``mask`` ((N,) bool on the device; None: every disk), drawn from
+        :attr:`rngs`, or from the host's ``states`` ((N, 8), or (N, 10) under the ``"sliding"`` and ``"coulomb"``
+        contacts; rows of NaN: drawn), writing into :attr:`out`; those disks have not ended."""
+        if mask is None:
+            self.mask.fill_(True)
+        else:
+            self.mask.copy_(mask)
+        if states is not None:
+            self.given.copy_(torch.from_numpy(given_states(states)))
+        elif self._given:
+            self.given.fill_(math.nan)
+        self._given = states is not None
+        self._prepared()[1]()
+        self.ended.logical_and_(self.mask.logical_not())
 
-    def step(self, actions: torch.Tensor, out: Outputs, resetting: torch.Tensor | None = None, rngs=None) -> int:
-        """Steps every disk under ``actions`` (N, A) float32 on the device, then starts new episodes in the disks of
-        ``resetting`` (a bool tensor, or None) from ``rngs`` (:attr:`rngs`), writing into ``out`` (:meth:`outputs`).
-        Returns the first disk whose action is not finite (then nothing was stepped), or -1."""
-        finite = torch.isfinite(actions).all(dim=1)
-        if not bool(finite.all()):
-            return int(torch.nonzero(~finite)[0, 0])
+    def step(self, actions: torch.Tensor) -> tuple[tuple[torch.Tensor, torch.Tensor, torch.Tensor], int, int]:
+        """Steps every disk under ``actions`` ((N, A) on the device; clipped to [-1, 1] by the kernel), with the
+        autoreset of :attr:`mode`, unless an action is not finite or, under DISABLED, a disk has ended: then nothing
+        is stepped.
+
+        Returns:
+            The fresh copies of the observations (N, size) and rewards (N,) float32 and of the flags terminated and
+            truncated (2, N) bool; the first disk whose action is not finite, and the first disk that had ended under
+            DISABLED (-1: none; where either is not, nothing was stepped and the returned tensors are meaningless).
+        """
         if self._growing:
             self._grow_tracking()
-        self._actions.copy_(actions)
-        if resetting is None:
-            self._mask.zero_()
-        else:
-            self._mask.copy_(resetting)
-        launch(self._step_kernel, self.num_envs, self.step_arguments(rngs))
-        return -1
+        step, _, check = self._prepared()
+        self.actions.copy_(actions)
+        check()
+        step()
+        fresh = self._fresh_views(self._fresh.clone())
+        bad, ended = self._read_status()
+        n = self.num_envs
+        if bad < n or ended < n:
+            self.status.fill_(n)
+        return fresh, bad if bad < n else -1, ended if ended < n else -1
 
-    def step_arguments(self, rngs=None) -> tuple:
-        """The argument of the step kernels, ``(actions, batch, setup, out, resets)``: the batch's arrays and the views
-        of its buffers of actions (N, A) and of the reset mask (N,), as the latest step or reset left them, with the
-        PCG64 states ``rngs`` (:attr:`rngs`; None: the uniforms as they are)."""
-        resets = (self._views[1], self._no_rngs if rngs is None else rngs, self._uniforms, self._no_state)
-        return (self._views[0], *self._device, self._out_views, resets)
+    def _read_status(self) -> tuple[int, int]:
+        """The status word once the step is done: the one read from the device a step makes."""
+        if not SIMULATED:
+            self._status_host.copy_(self.status, non_blocking=True)
+            self._read.record()
+            self._read.synchronize()
+        return int(self._status_word[0]), int(self._status_word[1])
 
     def seed(self, rows: list[int], words: list[np.ndarray]) -> None:
         """Sets the PCG64 states of the disks ``rows`` to ``words`` (4 uint64 each)."""

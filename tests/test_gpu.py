@@ -15,7 +15,7 @@ import pytest
 import torch
 from gymnasium.vector import AutoresetMode
 
-from tests.test_torch_env import make, paired_rollout
+from tests.test_torch_env import _assert_close, _assert_infos_close, make, paired_rollout
 
 SIMULATED = os.environ.get("NUMBA_ENABLE_CUDASIM") == "1"
 if importlib.util.find_spec("numba_cuda") is None:
@@ -60,8 +60,8 @@ def test_seeds_states_and_partial_resets_as_the_cpu_env():
     mask = np.arange(8) % 2 == 0
     got = ours.reset(options={"state": torch.from_numpy(state), "reset_mask": torch.from_numpy(mask)})
     want = theirs.reset(options={"state": state, "reset_mask": mask})
-    np.testing.assert_array_equal(got[0].cpu().numpy(), want[0])
-    np.testing.assert_array_equal(got[1]["state"].cpu().numpy()[mask], want[1]["state"][mask])
+    np.testing.assert_allclose(got[0].cpu().numpy(), want[0], rtol=0.0, atol=RTOL)
+    np.testing.assert_allclose(got[1]["state"].cpu().numpy()[mask], want[1]["state"][mask], rtol=0.0, atol=10 * RTOL)
 
 
 def test_non_finite_actions_raise_and_step_nothing():
@@ -95,3 +95,154 @@ def test_tensors_live_on_the_gpu_and_actions_on_the_cpu_are_moved_there():
     assert observations.device.type == "cuda" and info["state"].device.type == "cuda"
     observations, rewards, terminated, truncated, info = envs.step(np.zeros((256, 2), dtype=np.float64))
     assert all(t.device.type == "cuda" for t in (observations, rewards, terminated, truncated, info["energy"]))
+
+
+def _forced(num_envs: int, steps: int, mode=AutoresetMode.NEXT_STEP, **kwargs):
+    """Steps the GPU env and the numpy vector env under the same random actions, the GPU batch set to the CPU's
+    state (lanes, goals, step counts, ended flags, PCG64 states) before each step: yields the step's results of both,
+    so that each step is compared from the same state (a chaotic fall or a stick-slip switch cannot carry a rounding
+    difference from one step into the next)."""
+    ours, theirs = make(num_envs, mode, "cuda", **kwargs), make(num_envs, mode, **kwargs)
+    ours.reset(seed=11)
+    theirs.reset(seed=11)
+    device, cpu = ours.unwrapped._batch, theirs.unwrapped
+    rng = np.random.default_rng(1)
+    for step in range(steps):
+        device.load(cpu._batch)
+        device.ended.copy_(torch.from_numpy(cpu._ended))
+        device.seed(list(range(num_envs)), list(cpu._rngs))
+        actions = rng.uniform(-1.5, 1.5, theirs.action_space.shape).astype(np.float32)
+        yield step, ours.step(torch.from_numpy(actions).to(device.device)), theirs.step(actions)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"task": "upright"}, {"task": "goto", **CONTACTS["coulomb"]}, {"task": "circle", **CONTACTS["sliding"]}],
+    ids=["upright", "goto-coulomb", "circle-sliding"],
+)
+def test_each_step_from_the_cpu_state_follows_the_cpu(kwargs):
+    """Teacher-forced: every step starts from the CPU's state, so the outputs agree within the rounding of one step."""
+    for step, got, want in _forced(64, 120, **kwargs):
+        for index in range(4):
+            expected = want[index].astype(np.float32) if index == 1 else want[index]
+            _assert_close(got[index], expected, RTOL, f"step {step} output {index}")
+        _assert_infos_close(got[4], want[4], RTOL, f"step {step}")
+
+
+def test_same_step_autoreset_on_the_device_keeps_the_last_outputs():
+    """SAME_STEP in one launch: the kernel keeps each ending disk's last observation and info before resetting it."""
+    ended = 0
+    for step, got, want in _forced(32, 90, AutoresetMode.SAME_STEP, task="goto"):
+        _assert_infos_close(got[4], want[4], RTOL, f"step {step}")
+        ended += int(np.asarray(want[4].get("_final_obs", np.zeros(1, bool))).sum())
+    assert ended >= 16, f"only {ended} episodes ended"
+
+
+def test_a_seed_gives_the_same_bits_run_after_run():
+    """The same seed and actions give the same bits twice (Coulomb contact: every disk runs the hybrid)."""
+    runs = []
+    for _ in range(2):
+        envs = make(64, device="cuda", task="circle", **CONTACTS["coulomb"])
+        observations, _ = envs.reset(seed=3)
+        rng, outputs = np.random.default_rng(2), [observations.cpu().numpy()]
+        for _ in range(60):
+            actions = torch.from_numpy(rng.uniform(-1, 1, (64, 2)).astype(np.float32)).to(observations.device)
+            observations, rewards, terminated, truncated, info = envs.step(actions)
+            outputs += [t.cpu().numpy() for t in (observations, rewards, terminated, truncated, info["state"])]
+        runs.append(outputs)
+    for first, second in zip(*runs):
+        np.testing.assert_array_equal(first, second)
+
+
+class _Crossings:
+    """Counts, while on, the package's crossings between host and device and the reads that synchronize."""
+
+    ENTRIES = ("to_device", "to_host", "launch")
+    READS = ("__bool__", "item", "cpu", "tolist", "numpy")
+
+    def __init__(self, monkeypatch):
+        from rolling_disk_env import gpu
+
+        self.counts, self.on = {}, False
+        for name in self.ENTRIES:
+            monkeypatch.setattr(gpu, name, self._counted(name, getattr(gpu, name)))
+        monkeypatch.setattr(gpu.Launch, "__call__", self._counted("Launch", gpu.Launch.__call__))
+        for name in self.READS:
+            monkeypatch.setattr(torch.Tensor, name, self._counted(f"Tensor.{name}", getattr(torch.Tensor, name)))
+
+    def _counted(self, name, function):
+        def counted(*args, **kwargs):
+            if self.on:
+                self.counts[name] = self.counts.get(name, 0) + 1
+            return function(*args, **kwargs)
+
+        return counted
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda mode: mode.value)
+@pytest.mark.parametrize("contact", ["rolling", "coulomb"])
+def test_a_step_crosses_nothing_but_its_two_launches(monkeypatch, contact, mode):
+    """A step on the device: the check and the step launched through their prepared launches, no copy to or from the
+    device through the package, no read of a tensor on the host (the status word is read from pinned memory); a
+    reset by a mask on the device likewise launches once and copies nothing."""
+    envs = make(16, mode, "cuda", task="goto", **CONTACTS[contact])
+    observations, _ = envs.reset(seed=0)
+    actions = torch.zeros((16, 2), device=observations.device)
+    envs.step(actions)
+    crossings = _Crossings(monkeypatch)
+    crossings.on = True
+    for _ in range(3):
+        envs.step(actions)
+    assert crossings.counts == {"Launch": 6}
+    crossings.counts.clear()
+    envs.reset(options={"reset_mask": torch.arange(16, device=observations.device) % 3 == 0})
+    assert crossings.counts == {"Launch": 1}
+
+
+@pytest.mark.skipif(SIMULATED, reason="needs a real GPU: the simulator does not synchronize")
+def test_a_step_synchronizes_only_to_read_its_status(monkeypatch):
+    """Under torch's sync debug mode "error", every synchronizing torch call but the one read of the status word
+    raises."""
+    from rolling_disk_env import gpu
+
+    envs = make(1024, device="cuda", task="circle")
+    observations, _ = envs.reset(seed=0)
+    actions = torch.zeros((1024, 2), device=observations.device)
+    envs.step(actions)
+    read = gpu.DeviceBatch._read_status
+
+    def allowed(batch):
+        torch.cuda.set_sync_debug_mode("default")
+        try:
+            return read(batch)
+        finally:
+            torch.cuda.set_sync_debug_mode("error")
+
+    monkeypatch.setattr(gpu.DeviceBatch, "_read_status", allowed)
+    torch.cuda.set_sync_debug_mode("error")
+    try:
+        for _ in range(5):
+            envs.step(actions)
+        envs.reset(options={"reset_mask": torch.arange(1024, device=observations.device) % 2 == 0})
+    finally:
+        torch.cuda.set_sync_debug_mode("default")
+
+
+def test_rsl_rl_env_moves_the_disks_within_their_episodes_and_logs_successes_on_the_device():
+    """rsl_rl's ``init_at_random_ep_len`` writes ``episode_length_buf``: the disks' own step counters, so they truncate
+    where it says; the success rate of the iteration's ended episodes is logged at its last step."""
+    from agents.device_training import RslRlVecEnv
+
+    env = RslRlVecEnv("upright", 8, "cuda", 0, {}, steps_per_iteration=4)
+    env.episode_length_buf = torch.tensor([498, 497, 0, 0, 0, 0, 0, 10])
+    assert env.episode_length_buf.tolist() == [498, 497, 0, 0, 0, 0, 0, 10]
+    actions = torch.zeros((8, 2), device=env.device)
+    time_outs = []
+    for step in range(4):
+        *_, extras = env.step(actions)
+        time_outs.append(extras["time_outs"].cpu().numpy())
+        assert ("/success_rate" in extras["log"]) == (step == 3)
+    ended = np.array(time_outs)
+    assert ended[1].tolist() == [True] + [False] * 7 and ended[2].tolist() == [False, True] + [False] * 6
+    assert float(extras["log"]["/success_rate"]) == 1.0  # upright: the two truncated episodes had not fallen
+    assert env.episode_length_buf.tolist() == [2, 1, 4, 4, 4, 4, 4, 14]

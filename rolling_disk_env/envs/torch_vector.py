@@ -2,15 +2,25 @@
 
 from __future__ import annotations
 
+import functools
+
+import gymnasium as gym
 import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
 
+from rolling_disk_env import engine
 from rolling_disk_env.envs.batch import DiskBatch, Outputs
 from rolling_disk_env.envs.vector import RollingDiskVectorEnv
 
 DEVICES = ("cpu", "cuda")
 """The devices of :class:`RollingDiskTorchVectorEnv`."""
+MODES = {
+    AutoresetMode.NEXT_STEP: engine.NEXT_STEP,
+    AutoresetMode.SAME_STEP: engine.SAME_STEP,
+    AutoresetMode.DISABLED: engine.DISABLED,
+}
+"""The autoreset modes as the device's kernels take them."""
 
 
 class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
@@ -35,6 +45,14 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
     the GPU the info tensors are views of buffers that the next step overwrites: clone what you keep. SAME_STEP's
     ``info["final_obs"]`` is a tensor (N, obs) whose rows hold the last observations where ``"_final_obs"`` is True.
     ``reset(options=...)`` takes ``"reset_mask"`` and ``"state"`` as tensors or arrays.
+
+    On the GPU a step reads one status word from the device (so that a non-finite action still raises
+    ``ValueError`` and steps nothing, and DISABLED's ended disks are found) and copies nothing else between host and
+    device (:class:`~rolling_disk_env.gpu.DeviceBatch`); ``reset(options={"reset_mask": mask})`` with a mask on the
+    device copies nothing either, and so does not check that the mask holds a True (an empty mask resets no disk).
+    The one difference from ``SyncVectorEnv`` there: under SAME_STEP, ``"final_obs"`` and ``"final_info"`` (views
+    too) are in the info of every step, their masks False where no episode ended (a host check of the flags would
+    cost a synchronization a step).
 
     ``reset(seed=s)`` draws the same episodes as the CPU vector env (the same PCG64 streams,
     :mod:`rolling_disk_env.pcg64`), and the steps follow it within the rounding of fused multiply-adds on the GPU
@@ -67,31 +85,43 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         if self._on_gpu:
             self.device = self._batch.device
             self._rngs = self._batch.rngs
-            self._ended = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
+            self._ended = self._batch.ended
+            self._all = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
+            self._step_infos, self._refresh = self._device_infos(self._batch.out, self._all)
+            if self.autoreset_mode == AutoresetMode.SAME_STEP:
+                batch = self._batch
+                final_info, refresh = self._device_infos(batch.final, batch.final_mask)
+                self._step_infos.update(
+                    final_obs=batch.final.observations,
+                    _final_obs=batch.final_mask,
+                    final_info=final_info,
+                    _final_info=batch.final_mask,
+                )
+                self._refresh += refresh
 
     def _new_batch(self, max_episode_steps: int | None) -> DiskBatch:
         if not self._on_gpu:
             return super()._new_batch(max_episode_steps)
         from rolling_disk_env.gpu import DeviceBatch
 
-        return DeviceBatch(self.config, self.num_envs, max_episode_steps)
+        return DeviceBatch(self.config, self.num_envs, max_episode_steps, MODES[self.autoreset_mode])
 
-    def _set_rngs(self, rows: list[int], words: list[np.ndarray]) -> None:
+    @property
+    def steps(self) -> torch.Tensor:
+        """(N,) int64: each disk's steps in its current episode (it truncates at ``max_episode_steps``), a view of the
+        batch's counters (no copy); assigning to it (e.g. random counts, so that the disks do not all truncate at the
+        same step) moves the disks within their episodes."""
         if self._on_gpu:
-            self._batch.seed(rows, words)
-        else:
-            super()._set_rngs(rows, words)
+            return self._batch.steps_tensor
+        return torch.from_numpy(self._batch.steps[: self.num_envs])
 
-    def _like_ended(self, mask: np.ndarray):
-        return self._tensor(mask) if self._on_gpu else mask
+    @steps.setter
+    def steps(self, counts) -> None:
+        self.steps.copy_(torch.as_tensor(counts).view(-1))
 
     def _tensor(self, array) -> torch.Tensor:
         """``array`` as a tensor on the env's device: a numpy array without a copy on the CPU."""
         return array if isinstance(array, torch.Tensor) else torch.as_tensor(array, device=self.device)
-
-    @staticmethod
-    def _kept(array):
-        return array.clone() if isinstance(array, torch.Tensor) else array.copy()
 
     def _checked_actions(self, actions):
         """The actions as a C-contiguous float32 tensor on the device, clipped to [-1, 1] (the batch checks that they
@@ -117,13 +147,48 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
 
     def reset(self, *, seed=None, options: dict | None = None):
         options = dict(options or {})
+        if self._on_gpu:
+            return self._reset_on_device(seed, options)
         for key in ("reset_mask", "state"):
             if isinstance(options.get(key), torch.Tensor):
                 options[key] = options[key].detach().cpu().numpy()
         observations, infos = super().reset(seed=seed, options=options)
         return self._observations(observations), infos
 
+    def _reset_on_device(self, seed, options: dict):
+        """:meth:`reset` on the GPU: a device mask stays there."""
+        mask = options.pop("reset_mask", None)
+        if mask is not None:
+            mask = self._device_mask(mask)
+        if isinstance(options.get("state"), torch.Tensor):
+            options["state"] = options["state"].detach().cpu().numpy()
+        states = self.config.reset_state(options, self.num_envs)
+        if seed is not None or not self._seeded:
+            self._seed(seed, np.ones(self.num_envs, bool) if mask is None else mask.cpu().numpy())
+        self._batch.reset(mask, states)
+        self._last = self._batch.out
+        infos, refresh = self._device_infos(self._batch.out, self._all if mask is None else mask.clone())
+        for update in refresh:
+            update()
+        return self._batch.out.observations.clone(), infos
+
+    def _device_mask(self, mask) -> torch.Tensor:
+        """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it (but for a True in a mask on the device,
+        which would read it), on the device."""
+        if isinstance(mask, torch.Tensor):
+            if self._last is None:
+                raise ValueError('options["reset_mask"] resets some sub-environments: reset all of them first')
+            if tuple(mask.shape) != (self.num_envs,) or mask.dtype != torch.bool:
+                raise ValueError(
+                    f'options["reset_mask"] must be a bool tensor or array of shape ({self.num_envs},), got a '
+                    f"{mask.dtype} tensor of shape {tuple(mask.shape)}"
+                )
+            return mask.detach().to(self.device)
+        return torch.from_numpy(self._reset_mask(mask)).to(self.device)
+
     def step(self, actions):
+        if self._on_gpu:
+            return self._step_on_device(actions)
         observations, rewards, terminated, truncated, infos = super().step(actions)
         return (
             self._observations(observations),
@@ -133,10 +198,62 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
             infos,
         )
 
-    def _observations(self, observations) -> torch.Tensor:
-        """The observations handed out: the GPU's buffer copied (the next step writes it), the CPU's fresh array
-        as it is."""
-        return observations.clone() if self._on_gpu else torch.from_numpy(observations)
+    def _step_on_device(self, actions):
+        """:meth:`step` on the GPU: one status word read, nothing else crosses."""
+        if self._last is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        actions = self._checked_actions(actions)
+        (observations, rewards, dones), bad, ended = self._batch.step(actions)
+        if bad >= 0:
+            raise ValueError(f"actions must be finite numbers, got {actions[bad].tolist()} for sub-environment {bad}")
+        if ended >= 0:
+            ended = torch.nonzero(self._batch.ended).flatten().tolist()
+            raise ValueError(
+                f"sub-environments {ended} have ended and autoreset is disabled: "
+                'reset them with reset(options={"reset_mask": mask}) first'
+            )
+        for update in self._refresh:
+            update()
+        return observations, rewards, dones[0], dones[1], dict(self._step_infos)
+
+    def _device_infos(self, out: Outputs, mask: torch.Tensor) -> tuple[dict, list]:
+        """The batched info of ``out`` (the GPU batch's) with the mask ``mask``: views of its tensors, made once, and
+        the updates that refresh the values that are not views (under the ``"sliding"`` and ``"coulomb"``
+        contacts, the 10-state and the sliding flags) after each step."""
+        info, first, n, refresh = out.info, self._batch.contact_rows, self.num_envs, []
+        if first is None:
+            state, sliding = info[:8].T, torch.zeros(n, dtype=torch.bool, device=self.device)
+            slip = torch.zeros((n, 2), dtype=torch.float64, device=self.device)
+        else:
+            rows = torch.as_tensor(self._batch.state_rows, device=self.device)
+            states = torch.empty((len(rows), n), dtype=torch.float64, device=self.device)
+            sliding = torch.empty(n, dtype=torch.bool, device=self.device)
+            refresh += [
+                functools.partial(torch.index_select, info, 0, rows, out=states),
+                functools.partial(torch.gt, info[first + 4], 0.0, out=sliding),
+            ]
+            state, slip = states.T, info[first + 2 : first + 4].T
+        infos = {
+            "state": state,
+            "energy": info[engine.ENERGY],
+            "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
+            "normal_force": info[engine.NORMAL_FORCE],
+            "required_friction": info[engine.REQUIRED_FRICTION],
+            "sliding": sliding,
+            "slip_velocity": slip,
+            "is_success": out.flags[engine.SUCCESS],
+            "termination": out.codes,
+        }
+        infos.update(zip(self._term_keys, info[engine.TERMS :]))
+        masked = {}
+        for key, value in infos.items():
+            masked[key], masked["_" + key] = value, mask
+        return masked, refresh
+
+    @staticmethod
+    def _observations(observations: np.ndarray) -> torch.Tensor:
+        """The CPU's fresh observations as a tensor, without a copy."""
+        return torch.from_numpy(observations)
 
     def _infos(self, out: Outputs, present) -> dict:
         infos, tensors = super()._infos(out, present), {}

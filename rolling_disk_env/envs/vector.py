@@ -97,7 +97,7 @@ class RollingDiskVectorEnv(VectorEnv):
             # The others' latest observations, from the info block: the caller may have changed those it was given.
             out.observations[:] = self._last.info[self._batch.observation_rows].T
         self._batch.reset(mask, out, self._rngs, states)
-        self._ended = self._ended & ~self._like_ended(mask)
+        self._ended = self._ended & ~mask
         self._last = out
         return out.observations, self._infos(out, mask)  # fresh arrays, as the step's
 
@@ -147,10 +147,6 @@ class RollingDiskVectorEnv(VectorEnv):
         if actions.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
         return actions
-
-    def _like_ended(self, mask: np.ndarray):
-        """A reset mask as the ended flags are kept (a numpy array here)."""
-        return mask
 
     _kept = staticmethod(np.copy)
     """A copy of an output array that the next step does not change."""
@@ -226,16 +222,3 @@ class RollingDiskVectorEnv(VectorEnv):
         kept.codes[ended] = out.codes[ended]
         final_info = self._infos(kept, ended)
         return {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info, "_final_info": ended.copy()}
-
-
-def vector_env(num_envs: int = 1, device=None, **kwargs) -> RollingDiskVectorEnv:
-    """The ids' ``vector_entry_point``: :class:`RollingDiskVectorEnv` (numpy), or with ``device`` ("cpu" or "cuda")
-    :class:`~rolling_disk_env.envs.torch_vector.RollingDiskTorchVectorEnv` (torch tensors on that device)."""
-    if device is None:
-        return RollingDiskVectorEnv(num_envs, **kwargs)
-    try:
-        from rolling_disk_env.envs.torch_vector import RollingDiskTorchVectorEnv
-    except ModuleNotFoundError as error:
-        raise ImportError(f"device={device!r} hands out torch tensors and needs torch: pip install torch") from error
-
-    return RollingDiskTorchVectorEnv(num_envs, device=device, **kwargs)
