@@ -76,11 +76,12 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
 
         return DeviceBatch(self.config, self.num_envs, max_episode_steps)
 
-    def _set_rngs(self, rows: list[int], words: list[np.ndarray]) -> None:
+    def _set_rngs(self, words: np.ndarray, mask: np.ndarray) -> None:
         if self._on_gpu:
-            self._batch.seed(rows, words)
+            rows = np.flatnonzero(mask).tolist()
+            self._batch.seed(rows, words[rows])
         else:
-            super()._set_rngs(rows, words)
+            super()._set_rngs(words, mask)
 
     def _like_ended(self, mask: np.ndarray):
         return self._tensor(mask) if self._on_gpu else mask
