@@ -32,7 +32,7 @@ import numba
 import numpy as np
 import torch
 
-from rolling_disk_env import engine
+from rolling_disk_env import engine, pcg64
 from rolling_disk_env.envs.batch import GIVEN_SIZE, DiskBatch, Outputs, given_states
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.jit import _PackageStamp
@@ -238,6 +238,14 @@ def _check(actions, ended, disabled, status):
             cuda.atomic.min(status, 1, k)
 
 
+def _seed(seed_high, seed_low, mask, rngs):
+    """Disk k's PCG64 state, where ``mask`` holds it: numpy's ``PCG64(SeedSequence(seed + k))``
+    (:func:`rolling_disk_env.pcg64.seed_state`; the seed's high and low 64 bits)."""
+    k = cuda.grid(1)
+    if k < rngs.shape[0] and mask[k]:
+        pcg64.seed_state(seed_high, seed_low, np.uint64(k), rngs[k])
+
+
 class DeviceBatch(DiskBatch):
     """A :class:`~rolling_disk_env.envs.batch.DiskBatch` on the GPU: N shares of one disk, in device memory, stepped
     and reset by its task's CUDA kernels, a thread a disk, with the autoreset decided on the device.
@@ -394,14 +402,19 @@ class DeviceBatch(DiskBatch):
     def __getstate__(self):
         raise TypeError("a DeviceBatch lives in device memory: it cannot be pickled")
 
-    def reset(self, mask: torch.Tensor | None, states: np.ndarray | None = None) -> None:
+    def reset(self, mask: torch.Tensor | None, states: np.ndarray | None = None, seed: int | None = None) -> None:
         """Starts new episodes in the disks of ``mask`` ((N,) bool on the device; None: every disk), drawn from
-        :attr:`rngs`, or from the host's ``states`` ((N, 8), or (N, 10) under the ``"sliding"`` and ``"coulomb"``
-        contacts; rows of NaN: drawn), writing into :attr:`out`; those disks have not ended."""
+        :attr:`rngs` (first seeded on the device where ``seed`` is given: disk k's state that of ``seed + k``, a
+        non-negative int with ``seed + N`` below :data:`~rolling_disk_env.pcg64.SEED_LIMIT`), or from the host's
+        ``states`` ((N, 8), or (N, 10) under the ``"sliding"`` and ``"coulomb"`` contacts; rows of NaN: drawn), writing
+        into :attr:`out`; those disks have not ended."""
         if mask is None:
             self.mask.fill_(True)
         else:
             self.mask.copy_(mask)
+        if seed is not None:
+            high, low = np.uint64(seed >> 64), np.uint64(seed & 0xFFFFFFFFFFFFFFFF)
+            launch(_jit(_seed), self.num_envs, high, low, view(self.mask), self.rngs)
         if states is not None:
             self.given.copy_(torch.from_numpy(given_states(states)))
         elif self._given:
@@ -441,12 +454,11 @@ class DeviceBatch(DiskBatch):
             self._read.synchronize()
         return int(self._status_word[0]), int(self._status_word[1])
 
-    def seed(self, rows: list[int], words: list[np.ndarray]) -> None:
-        """Sets the PCG64 states of the disks ``rows`` to ``words`` (4 uint64 each)."""
-        if not rows:
-            return
+    def seed(self, words: np.ndarray, mask: np.ndarray) -> None:
+        """Sets the PCG64 states of the disks of ``mask`` ((N,) bool) to those rows of ``words`` ((N, 4) uint64),
+        through the host (a list of seeds; :meth:`reset` seeds ``seed + k`` on the device)."""
         host = to_host(self.rngs)
-        host[rows] = words
+        np.copyto(host, words, where=mask[:, None])
         if not SIMULATED:
             self.rngs.copy_to_device(host, stream=_stream())
 

@@ -110,7 +110,7 @@ def _forced(num_envs: int, steps: int, mode=AutoresetMode.NEXT_STEP, **kwargs):
     for step in range(steps):
         device.load(cpu._batch)
         device.ended.copy_(torch.from_numpy(cpu._ended))
-        device.seed(list(range(num_envs)), list(cpu._rngs))
+        device.seed(cpu._rngs, np.ones(num_envs, dtype=bool))
         actions = rng.uniform(-1.5, 1.5, theirs.action_space.shape).astype(np.float32)
         yield step, ours.step(torch.from_numpy(actions).to(device.device)), theirs.step(actions)
 

@@ -1,12 +1,17 @@
 """The native vector env: Gymnasium's vector API, its three autoreset modes against SyncVectorEnv, and equality with N
 single envs to the last bit."""
 
+import os
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 import rolling_disk_env as rd
+from rolling_disk_env import pcg64
 from rolling_disk_env.envs import batch
 from rolling_disk_env.tasks import TASKS
 
@@ -186,6 +191,75 @@ def test_vector_reset_takes_exact_states_and_seed_lists():
         vector.reset(options={"state": states[0]})
     with pytest.raises(ValueError, match="seed"):
         vector.reset(seed=[1, 2, 3])
+
+
+class NumpySeeded(rd.RollingDiskVectorEnv):
+    """The vector env as it seeded before seeds were hashed in compiled code: numpy's SeedSequence through
+    ``gymnasium.utils.seeding.np_random``, a sub-environment at a time."""
+
+    def _seed(self, seed, mask):
+        if seed is None:
+            if self._seeded:
+                return
+            seeds = [None] * self.num_envs
+        elif isinstance(seed, int):
+            seeds = [seed + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+        rows = [i for i in np.flatnonzero(mask).tolist() if seeds[i] is not None or not self._seeded]
+        words = [pcg64.state_words(seeding.np_random(seeds[i])[0]) for i in rows]
+        if rows:
+            self._rngs[rows] = words
+        self._seeded = True
+
+
+SEEDED_RESETS = [
+    (0, None),
+    (2**32 - 1, None),
+    (2**63, None),
+    (2**64 - 3, None),  # seed + i reaches 2^64 at i = 3: a third 32-bit word
+    ([5, None, 2**64, 2**200, 0, None, True, 2**128 - 1], None),  # None: the stream goes on; 2^200: numpy's path
+    (None, None),  # no new seeds
+    (2**128 - 5, None),  # seed + i reaches 2^128 at i = 5
+    (-2, [False, False, True, True, False, True, False, True]),  # the seeds of the mask's rows are not negative
+    (77, [True, False, False, False, False, False, False, True]),
+]
+
+
+def test_seeded_resets_start_the_episodes_of_numpys_seed_sequences():
+    num_envs = 8
+    ours, theirs = (env(num_envs=num_envs, task="goto") for env in (rd.RollingDiskVectorEnv, NumpySeeded))
+    for seed, mask in SEEDED_RESETS:
+        options = None if mask is None else {"reset_mask": np.array(mask)}
+        observations, infos = ours.reset(seed=seed, options=options)
+        expected, expected_infos = theirs.reset(seed=seed, options=options)
+        np.testing.assert_array_equal(ours._rngs, theirs._rngs, err_msg=str(seed))
+        np.testing.assert_array_equal(observations, expected, err_msg=str(seed))
+        assert_infos_equal(infos, expected_infos, f"seed={seed}")
+
+
+@pytest.mark.parametrize("seed", [-1, -5, [1, -2, 3, 4], [1, np.int64(2), 3, 4], [None, 1.5, 0, 0]])
+def test_negative_and_non_int_seeds_raise_gymnasiums_error_and_seed_nothing(seed):
+    ours, theirs = rd.RollingDiskVectorEnv(num_envs=4), NumpySeeded(num_envs=4)
+    ours.reset(seed=9)
+    before = ours._rngs.copy()
+    with pytest.raises(gym.error.Error) as expected:
+        theirs.reset(seed=seed)
+    with pytest.raises(type(expected.value), match=f"^{re.escape(str(expected.value))}$"):
+        ours.reset(seed=seed)
+    np.testing.assert_array_equal(ours._rngs, before)
+
+
+def test_fresh_entropy_seeds_as_a_seed_sequence_of_128_random_bits(monkeypatch):
+    num_envs = 3
+    entropy = np.random.default_rng(0).integers(0, 2**64, (2, num_envs), dtype=np.uint64, endpoint=False)
+    urandom = os.urandom
+    monkeypatch.setattr(os, "urandom", lambda size: entropy.tobytes() if size == entropy.nbytes else urandom(size))
+    ours, theirs = rd.RollingDiskVectorEnv(num_envs=num_envs), NumpySeeded(num_envs=num_envs)
+    observations, _ = ours.reset()
+    expected, _ = theirs.reset(seed=[high << 64 | low for high, low in entropy.T.tolist()])
+    np.testing.assert_array_equal(ours._rngs, theirs._rngs)
+    np.testing.assert_array_equal(observations, expected)
 
 
 def test_step_before_reset_raises_reset_needed():

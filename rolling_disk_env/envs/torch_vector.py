@@ -9,7 +9,7 @@ import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
 
-from rolling_disk_env import engine
+from rolling_disk_env import engine, pcg64
 from rolling_disk_env.envs.batch import DiskBatch, Outputs
 from rolling_disk_env.envs.vector import RollingDiskVectorEnv
 
@@ -106,6 +106,12 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
 
         return DeviceBatch(self.config, self.num_envs, max_episode_steps, MODES[self.autoreset_mode])
 
+    def _set_rngs(self, words: np.ndarray, mask: np.ndarray) -> None:
+        if self._on_gpu:
+            self._batch.seed(words, mask)
+        else:
+            super()._set_rngs(words, mask)
+
     @property
     def steps(self) -> torch.Tensor:
         """(N,) int64: each disk's steps in its current episode (it truncates at ``max_episode_steps``), a view of the
@@ -163,9 +169,12 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         if isinstance(options.get("state"), torch.Tensor):
             options["state"] = options["state"].detach().cpu().numpy()
         states = self.config.reset_state(options, self.num_envs)
-        if seed is not None or not self._seeded:
+        on_device = isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and 0 <= seed
+        on_device = on_device and int(seed) + self.num_envs <= pcg64.SEED_LIMIT
+        if not on_device and (seed is not None or not self._seeded):  # a list, fresh entropy, a large seed: the host's
             self._seed(seed, np.ones(self.num_envs, bool) if mask is None else mask.cpu().numpy())
-        self._batch.reset(mask, states)
+        self._seeded = self._seeded or on_device
+        self._batch.reset(mask, states, int(seed) if on_device else None)
         self._last = self._batch.out
         infos, refresh = self._device_infos(self._batch.out, self._all if mask is None else mask.clone())
         for update in refresh:

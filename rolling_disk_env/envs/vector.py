@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -13,6 +14,9 @@ from gymnasium.vector.utils import batch_space
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env.envs.batch import DiskBatch, Outputs
 from rolling_disk_env.envs.config import EnvConfig, checked_actions
+
+_LOW_64 = (1 << 64) - 1
+"""The low 64 bits of a Python int."""
 
 
 class RollingDiskVectorEnv(VectorEnv):
@@ -115,30 +119,29 @@ class RollingDiskVectorEnv(VectorEnv):
         return mask
 
     def _seed(self, seed, mask: np.ndarray) -> None:
-        """Seeds the PCG64 state of each sub-environment in ``mask``: ``seed + i``, ``seed[i]``, or fresh entropy for
-        None (once: later resets without a seed go on with the same streams, as a single env's do)."""
+        """Seeds the PCG64 state of each sub-environment in ``mask`` as ``gymnasium.utils.seeding.np_random`` would:
+        ``seed + i``, ``seed[i]``, or fresh entropy for None (once: later resets without a seed go on with the same
+        streams, as a single env's do). A negative seed raises ``np_random``'s error."""
         if seed is None:
             if self._seeded:
                 return
-            seeds = [None] * self.num_envs
+            seeds = None
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
+            seeds = range(int(seed), int(seed) + self.num_envs)
         elif isinstance(seed, (list, tuple)) and len(seed) == self.num_envs:
-            seeds = list(seed)
+            seeds = seed
         else:
             raise ValueError(f"seed must be None, an int or a list of {self.num_envs} ints or None, got {seed!r}")
-        rows = [i for i in np.flatnonzero(mask).tolist() if seeds[i] is not None or not self._seeded]
-        self._set_rngs(rows, [pcg64.state_words(seeding.np_random(seeds[i])[0]) for i in rows])
+        self._set_rngs(*_seeded_words(seeds, mask, fresh=not self._seeded))
         self._seeded = True
 
     def _new_batch(self, max_episode_steps: int | None) -> DiskBatch:
         """The batch of the env's disks."""
         return DiskBatch(self.config, self.num_envs, max_episode_steps)
 
-    def _set_rngs(self, rows: list[int], words: list[np.ndarray]) -> None:
-        """Sets the PCG64 states of the sub-environments ``rows``."""
-        if rows:
-            self._rngs[rows] = words
+    def _set_rngs(self, words: np.ndarray, mask: np.ndarray) -> None:
+        """Sets the PCG64 states of the sub-environments in ``mask`` to those rows of ``words`` ((N, 4) uint64)."""
+        np.copyto(self._rngs, words, where=mask[:, None])
 
     def _checked_actions(self, actions):
         """``actions`` as the batch steps them: a C-contiguous float32 array of the action space's shape."""
@@ -222,3 +225,56 @@ class RollingDiskVectorEnv(VectorEnv):
         kept.codes[ended] = out.codes[ended]
         final_info = self._infos(kept, ended)
         return {"final_obs": final_obs, "_final_obs": ended, "final_info": final_info, "_final_info": ended.copy()}
+
+
+def _seeded_words(seeds, mask: np.ndarray, fresh: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The PCG64 states that ``gymnasium.utils.seeding.np_random(seeds[i])`` starts from, for the sub-environments i
+    of ``mask``, as :func:`rolling_disk_env.pcg64.state_words` gives them.
+
+    Args:
+        seeds: a sequence of N seeds, each a non-negative int or None (fresh entropy); or None: fresh entropy for
+            every one. A ``range`` (``reset(seed=s)``'s ``s + i``) of seeds from 0 to
+            :data:`~rolling_disk_env.pcg64.SEED_LIMIT` is hashed without a Python loop.
+        mask: (N,) bool, the sub-environments to seed.
+        fresh: whether a None in ``seeds`` draws fresh entropy (else it leaves the sub-environment's state as it is).
+
+    Returns:
+        The states, (N, 4) uint64, and the mask (N,) of the rows that hold one.
+
+    Seeds below ``SEED_LIMIT`` (2^128) and fresh entropy go through :func:`~rolling_disk_env.pcg64.seed_states`,
+    larger seeds through numpy's ``SeedSequence``; ``np_random`` raises Gymnasium's error for the others.
+    """
+    n = len(mask)
+    words, given = np.zeros((n, 4), dtype=np.uint64), np.zeros(n, dtype=bool)  # given: the states numpy gives
+    offsets = np.zeros(n, dtype=np.uint64)
+    if seeds is None:
+        hashed, (highs, lows) = mask, _entropy(n)
+    elif isinstance(seeds, range) and 0 <= seeds.start and seeds.stop <= pcg64.SEED_LIMIT:
+        hashed, offsets = mask, np.arange(n, dtype=np.uint64)
+        highs = np.full(n, seeds.start >> 64, dtype=np.uint64)
+        lows = np.full(n, seeds.start & _LOW_64, dtype=np.uint64)
+    else:
+        rows, values, entropic = [], [], []
+        for i in np.flatnonzero(mask).tolist():
+            seed = seeds[i]
+            if seed is None:
+                if fresh:
+                    entropic.append(i)
+            elif isinstance(seed, int) and 0 <= seed < pcg64.SEED_LIMIT:
+                rows.append(i)
+                values.append(seed)
+            else:
+                words[i], given[i] = pcg64.state_words(seeding.np_random(seed)[0]), True
+        highs, lows, hashed = np.zeros(n, dtype=np.uint64), np.zeros(n, dtype=np.uint64), np.zeros(n, dtype=bool)
+        highs[rows], lows[rows] = [value >> 64 for value in values], [value & _LOW_64 for value in values]
+        highs[entropic], lows[entropic] = _entropy(len(entropic))
+        hashed[rows] = True
+        hashed[entropic] = True
+    pcg64.seed_states(highs, lows, offsets, hashed, words)
+    return words, hashed | given
+
+
+def _entropy(count: int) -> np.ndarray:
+    """``count`` entropies as ``np.random.SeedSequence(None)`` draws one: 128 bits from the operating system
+    (``secrets.randbits``, which reads ``os.urandom``); (2, count) uint64, the high and the low halves."""
+    return np.frombuffer(os.urandom(16 * count), dtype=np.uint64).reshape(2, count)
