@@ -41,11 +41,13 @@ class RollingDiskVectorEnv(VectorEnv):
 
     Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)`` (or ``seed[i]`` from a list), as
     ``SyncVectorEnv`` does, and draws its episodes exactly as a single env with that seed would: both run the same
-    compiled kernels, so the transitions are equal to the last bit. ``reset(options={"state": X})`` takes initial
-    states of shape (N, 8), or (N, 10) under the ``"sliding"`` and ``"coulomb"`` contacts. The batch steps vectorized
-    over the disks; from ``rolling_disk_env.envs.batch.THREADS_FROM`` disks on numba's threads when they measure
-    faster (``rolling_disk_env.envs.batch.ThreadChoice``; ``NUMBA_NUM_THREADS=1`` keeps it on one).
-    Rendering is not offered: render one disk with the single env.
+    compiled kernels, so the transitions are equal to the last bit. The seeds' PCG64 states are hashed in compiled code
+    (:func:`rolling_disk_env.pcg64.seed_states`) for seeds below 2^128, by numpy one at a time above; the states are
+    numpy's either way. ``reset(options={"state": X})`` takes initial states of shape (N, 8), or (N, 10) under the
+    ``"sliding"`` and ``"coulomb"`` contacts. The batch steps vectorized over the disks; from
+    ``rolling_disk_env.envs.batch.THREADS_FROM`` disks on numba's threads when they measure faster
+    (``rolling_disk_env.envs.batch.ThreadChoice``; ``NUMBA_NUM_THREADS=1`` keeps it on one). Rendering is not offered:
+    render one disk with the single env.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
