@@ -238,9 +238,11 @@ def _check(actions, ended, disabled, status):
             cuda.atomic.min(status, 1, k)
 
 
-def _seed(seed_high, seed_low, mask, rngs):
+def _seed(arguments):
     """Disk k's PCG64 state, where ``mask`` holds it: numpy's ``PCG64(SeedSequence(seed + k))``
-    (:func:`rolling_disk_env.pcg64.seed_state`; the seed's high and low 64 bits)."""
+    (:func:`rolling_disk_env.pcg64.seed_state`), ``arguments`` being the seed's high and low 64 bits, the mask and the
+    states (one tuple, as the generated kernels take theirs: the simulator hands its arrays to the CPU's function)."""
+    seed_high, seed_low, mask, rngs = arguments
     k = cuda.grid(1)
     if k < rngs.shape[0] and mask[k]:
         pcg64.seed_state(seed_high, seed_low, np.uint64(k), rngs[k])
@@ -414,7 +416,7 @@ class DeviceBatch(DiskBatch):
             self.mask.copy_(mask)
         if seed is not None:
             high, low = np.uint64(seed >> 64), np.uint64(seed & 0xFFFFFFFFFFFFFFFF)
-            launch(_jit(_seed), self.num_envs, high, low, view(self.mask), self.rngs)
+            launch(_jit(_seed), self.num_envs, (high, low, view(self.mask), self.rngs))
         if states is not None:
             self.given.copy_(torch.from_numpy(given_states(states)))
         elif self._given:

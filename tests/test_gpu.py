@@ -122,7 +122,7 @@ def _forced(num_envs: int, steps: int, mode=AutoresetMode.NEXT_STEP, **kwargs):
 )
 def test_each_step_from_the_cpu_state_follows_the_cpu(kwargs):
     """Teacher-forced: every step starts from the CPU's state, so the outputs agree within the rounding of one step."""
-    for step, got, want in _forced(64, 120, **kwargs):
+    for step, got, want in _forced(48, 100, **kwargs):
         for index in range(4):
             expected = want[index].astype(np.float32) if index == 1 else want[index]
             _assert_close(got[index], expected, RTOL, f"step {step} output {index}")

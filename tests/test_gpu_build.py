@@ -44,7 +44,16 @@ def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
     if name == "reset":
         return resets, arrays, tuple(batch.setup), out
     actions = np.zeros((num_envs, config.action_space.shape[0]), np.float32)
-    return actions, arrays, tuple(batch.setup), out, resets
+    control = rd.engine.DeviceControl(
+        status=np.zeros(2, np.int64),
+        ended=np.zeros(num_envs, bool),
+        rewards=np.zeros(num_envs, np.float32),
+        dones=np.zeros((2, num_envs), bool),
+        final=batch.outputs().shares,
+        final_mask=np.zeros(num_envs, bool),
+        mode=rd.engine.SAME_STEP,
+    )
+    return actions, arrays, tuple(batch.setup), out, resets, tuple(control)
 
 
 KERNELS = [
@@ -62,6 +71,15 @@ def test_every_kernel_builds_for_sm_90(task, name, monkeypatch):
     monkeypatch.setattr(numba.cuda.dispatcher, "get_current_device", lambda: SimpleNamespace(compute_capability=H100))
     ptx, _ = cuda.compile_ptx(getattr(kernels, f"{task}_{name}"), (numba.typeof(arguments),), cc=H100)
     assert ".target sm_90" in ptx and ".entry" in ptx
+
+
+def test_the_check_and_the_seeding_build_for_sm_90(monkeypatch):
+    monkeypatch.setattr(numba.cuda.dispatcher, "get_current_device", lambda: SimpleNamespace(compute_capability=H100))
+    check = (numba.float32[:, ::1], numba.boolean[::1], numba.boolean, numba.int64[::1])
+    seed = (numba.types.Tuple((numba.uint64, numba.uint64, numba.boolean[::1], numba.uint64[:, ::1])),)
+    for function, types in ((gpu._check, check), (gpu._seed, seed)):
+        ptx, _ = cuda.compile_ptx(function, types, cc=H100)
+        assert ".target sm_90" in ptx and ".entry" in ptx
 
 
 @pytest.mark.skipif(cuda.is_available(), reason="this machine has a GPU")
