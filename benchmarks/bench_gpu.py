@@ -455,102 +455,108 @@ def main() -> None:
     ]
     chart(sizes, rows, args.out / "gpu.png", f"{gpu_name()}; host: {cpu()}")
 
-    contact_rows = []
-    for name, contact in BATCH_CONTACTS.items():
-        rates = [
-            measure(f"driven {name} {where} N={contact_size}", driven_rate, contact_size, device, contact, 10)
-            for where, device in (("gpu", "cuda"), ("cpu", None))
-        ]
-        contact_rows.append((name, rates))
-    rolling = contact_rows[0][1]
-    body = []
-    for name, rates in contact_rows:
-        cells = [name]
-        for rate, base in zip(rates, rolling):
-            cells += (
-                ["", ""]
-                if not rate or not base
-                else [f"{rate[0]:.3g} ({rate[1]:.1%} slid)", f"{base[0] / rate[0]:.2f}x"]
-            )
-        body.append(cells)
-    lines += [
-        f"## The Coulomb contact against the rolling one (N = {contact_size:,})",
-        "",
-        table(["batch", "GPU disk-steps/s", "GPU time vs rolling", "CPU disk-steps/s", "CPU time vs rolling"], body),
-        "",
-    ]
-
-    biggest = sizes[-1]
-    seeding = [
-        measure(f"reset(seed=0) s GPU N={biggest}", reset_seconds, biggest, "cuda"),
-        measure(f"reset(seed=0) s CPU N={min(biggest, 2**20)}", reset_seconds, min(biggest, 2**20), None),
-    ]
-    lines += [
-        "## Seeding, memory, bandwidth",
-        "",
-        f"- `reset(seed=0)`: {seeding[0]} s on the GPU at N = {biggest:,}; {seeding[1]} s for the CPU vector env at "
-        f"N = {min(biggest, 2**20):,}.",
-    ]
-    peak = peak_bandwidth()
-    for task in TASKS:
-        envs = make(task, 1024)
-        envs.step(torch.zeros((1024, 2), device=envs.unwrapped.device))
-        moved = step_bytes(envs)
-        resources = kernel_resources(envs)
-        envs.close()
-        memory = measure(f"memory a disk {task}", memory_per_disk, task, min(biggest, 2**20))
-        rate = rows[f"{task}: the env's step (torch, GPU)"][-1]
-        share = f"{moved * rate / peak:.0%} of {peak / 1e9:.0f} GB/s" if rate and peak else "n/a"
-        fits = f"{0.9 * torch.cuda.mem_get_info()[1] / memory:,.0f}" if memory and not gpu.SIMULATED else "n/a"
-        lines.append(
-            f"- `{task}`: a step moves {moved:.0f} bytes a disk ({share} at N = {biggest:,}); a disk takes "
-            f"{memory or 0:.0f} bytes of GPU memory, so about {fits} disks fit in 90% of it; registers and local "
-            f"memory (bytes) a thread: "
-            + ", ".join(f"{name} {regs}/{local}" for name, (regs, local) in resources.items())
-            + "."
-        )
-        results.values[f"resources {task}"] = resources
-    lines.append("")
-
-    body = []
-    for task in TASKS:
-        for contact in ({}, {"contact": "coulomb", "friction_coefficient": 0.2}):
-            for mode in ("NextStep", "SameStep", "Disabled"):
-                counts = measure(
-                    f"crossings {task} {contact.get('contact', 'rolling')} {mode}",
-                    crossings,
-                    task,
-                    mode,
-                    contact,
+    try:  # the sections below report what was measured, even where one of them fails
+        contact_rows = []
+        for name, contact in BATCH_CONTACTS.items():
+            rates = [
+                measure(f"driven {name} {where} N={contact_size}", driven_rate, contact_size, device, contact, 10)
+                for where, device in (("gpu", "cuda"), ("cpu", None))
+            ]
+            contact_rows.append((name, rates))
+        rolling = contact_rows[0][1]
+        body = []
+        for name, rates in contact_rows:
+            cells = [name]
+            for rate, base in zip(rates, rolling):
+                cells += (
+                    ["", ""]
+                    if not rate or not base
+                    else [f"{rate[0]:.3g} ({rate[1]:.1%} slid)", f"{base[0] / rate[0]:.2f}x"]
                 )
-                if counts:
-                    reads = counts.get("reads", 0)
-                    body.append(
-                        [
-                            task,
-                            contact.get("contact", "rolling"),
-                            mode,
-                            counts.get("launches", 0),
-                            reads,
-                            counts.get("copies", 0),
-                            16 * reads,
-                        ]
+            body.append(cells)
+        lines += [
+            f"## The Coulomb contact against the rolling one (N = {contact_size:,})",
+            "",
+            table(
+                ["batch", "GPU disk-steps/s", "GPU time vs rolling", "CPU disk-steps/s", "CPU time vs rolling"], body
+            ),
+            "",
+        ]
+
+        biggest = sizes[-1]
+        seeding = [
+            measure(f"reset(seed=0) s GPU N={biggest}", reset_seconds, biggest, "cuda"),
+            measure(f"reset(seed=0) s CPU N={min(biggest, 2**20)}", reset_seconds, min(biggest, 2**20), None),
+        ]
+        lines += [
+            "## Seeding, memory, bandwidth",
+            "",
+            f"- `reset(seed=0)`: {seeding[0]} s on the GPU at N = {biggest:,}; {seeding[1]} s for the CPU vector env "
+            f"at N = {min(biggest, 2**20):,}.",
+        ]
+        peak = peak_bandwidth()
+        for task in TASKS:
+            envs = make(task, 1024)
+            envs.step(torch.zeros((1024, 2), device=envs.unwrapped.device))
+            moved = step_bytes(envs)
+            resources = kernel_resources(envs)
+            envs.close()
+            memory = measure(f"memory a disk {task}", memory_per_disk, task, min(biggest, 2**20))
+            rate = rows[f"{task}: the env's step (torch, GPU)"][-1]
+            share = f"{moved * rate / peak:.0%} of {peak / 1e9:.0f} GB/s" if rate and peak else "n/a"
+            fits = f"{0.9 * torch.cuda.mem_get_info()[1] / memory:,.0f}" if memory and not gpu.SIMULATED else "n/a"
+            lines.append(
+                f"- `{task}`: a step moves {moved:.0f} bytes a disk ({share} at N = {biggest:,}); a disk takes "
+                f"{memory or 0:.0f} bytes of GPU memory, so about {fits} disks fit in 90% of it; registers and local "
+                f"memory (bytes) a thread: "
+                + ", ".join(f"{name} {regs}/{local}" for name, (regs, local) in resources.items())
+                + "."
+            )
+            results.values[f"resources {task}"] = resources
+        lines.append("")
+
+        body = []
+        for task in TASKS:
+            for contact in ({}, {"contact": "coulomb", "friction_coefficient": 0.2}):
+                for mode in ("NextStep", "SameStep", "Disabled"):
+                    counts = measure(
+                        f"crossings {task} {contact.get('contact', 'rolling')} {mode}",
+                        crossings,
+                        task,
+                        mode,
+                        contact,
                     )
-    lines += [
-        "## What crosses in a step",
-        "",
-        "Counted at the package's entry points (`gpu.Launch`, the status read, `gpu.to_device`, `gpu.to_host`, and "
-        "`Tensor.__bool__`, `item`, `cpu`, `tolist`) over 4 steps after a first; torch's own launches (the copy of the "
-        "actions, the fresh outputs' copy, the status word's copy) are not counted.",
-        "",
-        table(
-            ["task", "contact", "autoreset", "kernel launches", "reads of the device", "copies", "bytes crossing"], body
-        ),
-        "",
-        "Host time of one `step()` at N = 64 with the launches stubbed out: "
-        + ", ".join(f"{task} {value:.0f} us" for task, value in host.items() if value)
-        + ".",
-    ]
+                    if counts:
+                        reads = counts.get("reads", 0)
+                        body.append(
+                            [
+                                task,
+                                contact.get("contact", "rolling"),
+                                mode,
+                                counts.get("launches", 0),
+                                reads,
+                                counts.get("copies", 0),
+                                16 * reads,
+                            ]
+                        )
+        lines += [
+            "## What crosses in a step",
+            "",
+            "Counted at the package's entry points (`gpu.Launch`, the status read, `gpu.to_device`, `gpu.to_host`, "
+            "and `Tensor.__bool__`, `item`, `cpu`, `tolist`) over 4 steps after a first; torch's own launches (the "
+            "copy of the actions, the fresh outputs' copy, the status word's copy) are not counted.",
+            "",
+            table(
+                ["task", "contact", "autoreset", "kernel launches", "reads of the device", "copies", "bytes crossing"],
+                body,
+            ),
+            "",
+            "Host time of one `step()` at N = 64 with the launches stubbed out: "
+            + ", ".join(f"{task} {value:.0f} us" for task, value in host.items() if value)
+            + ".",
+        ]
+    except Exception as error:  # written into the results, the run's other figures kept
+        lines += ["", f"The report stopped: {type(error).__name__}: {error}"]
     write_markdown(
         "gpu",
         "On a GPU",
