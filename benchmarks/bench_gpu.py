@@ -407,9 +407,15 @@ class Results:
 
 def main() -> None:
     global PHYSICS_STEPS, FUSED_STEPS, ENV_STEPS, REPEATS
-    args = arguments(__doc__, budget={"type": float, "default": None, "help": "seconds for the measurements"})
+    args = arguments(
+        __doc__,
+        budget={"type": float, "default": None, "help": "seconds for the measurements"},
+        sizes={"type": int, "nargs": "+", "default": SIZES, "help": "N (default: %(default)s)"},
+        tasks={"nargs": "+", "choices": list(TASKS), "default": list(TASKS), "help": "tasks (default: all)"},
+    )
     gpu.require_device()
-    sizes, cpu_limit, contact_size = SIZES, CPU_LIMIT, CONTACT_SIZE
+    sizes, cpu_limit, contact_size = tuple(args.sizes), CPU_LIMIT, CONTACT_SIZE
+    tasks = {task: TASKS[task] for task in args.tasks}
     if args.quick:
         sizes, cpu_limit, contact_size = (64,), 64, 64
         PHYSICS_STEPS, FUSED_STEPS, ENV_STEPS, REPEATS = 2, 1, 2, 1
@@ -419,18 +425,18 @@ def main() -> None:
     lines += [__doc__.split("\n\n", 2)[2].strip(), ""]
     if gpu.SIMULATED:
         lines += ["Under numba-cuda's simulator: only section 6 means something.", ""]
-    host = {task: measure(f"host us a step, {task}", host_microseconds, task) for task in TASKS}
+    host = {task: measure(f"host us a step, {task}", host_microseconds, task) for task in tasks}
     rows: dict[str, list[float | None]] = {"physics only: the model's RK4 step": []}
-    rows.update({f"{task}: fused step, {FUSED_STEPS} a launch": [] for task in TASKS})
-    rows.update({f"{task}: the env's step (torch, GPU)": [] for task in TASKS})
-    rows.update({f"{task}: the CPU vector env, {os.cpu_count()} cores": [] for task in TASKS})
+    rows.update({f"{task}: fused step, {FUSED_STEPS} a launch": [] for task in tasks})
+    rows.update({f"{task}: the env's step (torch, GPU)": [] for task in tasks})
+    rows.update({f"{task}: the CPU vector env, {os.cpu_count()} cores": [] for task in tasks})
     rows["CartPoleVectorEnv (CPU)"] = []
     jax_cartpole_function = jax_cartpole()
     if jax_cartpole_function is not None:
         rows["CartPole in JAX on the GPU"] = []
     for n in sizes:
         rows["physics only: the model's RK4 step"].append(measure(f"physics N={n}", physics_rate, n, PHYSICS_STEPS))
-        for task in TASKS:
+        for task in tasks:
             env = measure(f"env {task} N={n}", env_rate, task, n, ENV_STEPS, "cuda")
             rows[f"{task}: the env's step (torch, GPU)"].append(env)
             fused = measure(f"fused {task} N={n}", fused_rate, task, n, FUSED_STEPS)
@@ -446,16 +452,48 @@ def main() -> None:
     header = ["disk-steps/s", *(f"N = {n:,}" for n in sizes)]
     body = [[name, *("" if v is None else f"{v:.3g}" for v in values)] for name, values in rows.items()]
     lines += ["## Throughput", "", "![throughput against N](gpu.png)", "", table(header, body), ""]
-    first = [rows[f"{task}: the env's step (torch, GPU)"][0] for task in TASKS]
+    first = [rows[f"{task}: the env's step (torch, GPU)"][0] for task in tasks]
     lines += [
         f"One step at N = {sizes[0]:,}: "
-        + ", ".join(f"{task} {1e6 * sizes[0] / rate:.0f} us" for task, rate in zip(TASKS, first) if rate)
+        + ", ".join(f"{task} {1e6 * sizes[0] / rate:.0f} us" for task, rate in zip(tasks, first) if rate)
         + ".",
         "",
     ]
     chart(sizes, rows, args.out / "gpu.png", f"{gpu_name()}; host: {cpu()}")
 
     try:  # the sections below report what was measured, even where one of them fails
+        biggest = sizes[-1]
+        seeding = [
+            measure(f"reset(seed=0) s GPU N={biggest}", reset_seconds, biggest, "cuda"),
+            measure(f"reset(seed=0) s CPU N={min(biggest, 2**20)}", reset_seconds, min(biggest, 2**20), None),
+        ]
+        lines += [
+            "## Seeding, memory, bandwidth",
+            "",
+            f"- `reset(seed=0)`: {seeding[0]} s on the GPU at N = {biggest:,}; {seeding[1]} s for the CPU vector env "
+            f"at N = {min(biggest, 2**20):,}.",
+        ]
+        peak = peak_bandwidth()
+        for task in tasks:
+            envs = make(task, 1024)
+            envs.step(torch.zeros((1024, 2), device=envs.unwrapped.device))
+            moved = step_bytes(envs)
+            resources = kernel_resources(envs)
+            envs.close()
+            memory = measure(f"memory a disk {task}", memory_per_disk, task, min(biggest, 2**20))
+            rate = rows[f"{task}: the env's step (torch, GPU)"][-1]
+            share = f"{moved * rate / peak:.0%} of {peak / 1e9:.0f} GB/s" if rate and peak else "n/a"
+            fits = f"{0.9 * torch.cuda.mem_get_info()[1] / memory:,.0f}" if memory and not gpu.SIMULATED else "n/a"
+            lines.append(
+                f"- `{task}`: a step moves {moved:.0f} bytes a disk ({share} at N = {biggest:,}); a disk takes "
+                f"{memory or 0:.0f} bytes of GPU memory, so about {fits} disks fit in 90% of it; registers and local "
+                f"memory (bytes) a thread: "
+                + ", ".join(f"{name} {regs}/{local}" for name, (regs, local) in resources.items())
+                + "."
+            )
+            results.values[f"resources {task}"] = resources
+        lines.append("")
+
         contact_rows = []
         for name, contact in BATCH_CONTACTS.items():
             rates = [
@@ -483,40 +521,8 @@ def main() -> None:
             "",
         ]
 
-        biggest = sizes[-1]
-        seeding = [
-            measure(f"reset(seed=0) s GPU N={biggest}", reset_seconds, biggest, "cuda"),
-            measure(f"reset(seed=0) s CPU N={min(biggest, 2**20)}", reset_seconds, min(biggest, 2**20), None),
-        ]
-        lines += [
-            "## Seeding, memory, bandwidth",
-            "",
-            f"- `reset(seed=0)`: {seeding[0]} s on the GPU at N = {biggest:,}; {seeding[1]} s for the CPU vector env "
-            f"at N = {min(biggest, 2**20):,}.",
-        ]
-        peak = peak_bandwidth()
-        for task in TASKS:
-            envs = make(task, 1024)
-            envs.step(torch.zeros((1024, 2), device=envs.unwrapped.device))
-            moved = step_bytes(envs)
-            resources = kernel_resources(envs)
-            envs.close()
-            memory = measure(f"memory a disk {task}", memory_per_disk, task, min(biggest, 2**20))
-            rate = rows[f"{task}: the env's step (torch, GPU)"][-1]
-            share = f"{moved * rate / peak:.0%} of {peak / 1e9:.0f} GB/s" if rate and peak else "n/a"
-            fits = f"{0.9 * torch.cuda.mem_get_info()[1] / memory:,.0f}" if memory and not gpu.SIMULATED else "n/a"
-            lines.append(
-                f"- `{task}`: a step moves {moved:.0f} bytes a disk ({share} at N = {biggest:,}); a disk takes "
-                f"{memory or 0:.0f} bytes of GPU memory, so about {fits} disks fit in 90% of it; registers and local "
-                f"memory (bytes) a thread: "
-                + ", ".join(f"{name} {regs}/{local}" for name, (regs, local) in resources.items())
-                + "."
-            )
-            results.values[f"resources {task}"] = resources
-        lines.append("")
-
         body = []
-        for task in TASKS:
+        for task in tasks:
             for contact in ({}, {"contact": "coulomb", "friction_coefficient": 0.2}):
                 for mode in ("NextStep", "SameStep", "Disabled"):
                     counts = measure(

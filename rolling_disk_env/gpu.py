@@ -113,6 +113,14 @@ def _external_stream(handle: int):
     return cuda.external_stream(handle)
 
 
+@functools.lru_cache(maxsize=16)
+def _driver_stream(handle: int):
+    """``cuda.core``'s view of the CUDA stream ``handle``, for :class:`Launch` (made once)."""
+    from cuda.core import Stream
+
+    return Stream.from_handle(handle)
+
+
 def to_device(array: np.ndarray):
     """A host array copied to device memory, on torch's current stream (the array itself under the simulator)."""
     return array if SIMULATED else cuda.to_device(np.ascontiguousarray(array), stream=_stream())
@@ -193,7 +201,7 @@ class Launch:
             _numba_launch(self.function, self.blocks, self.threads, self.arguments)
         else:
             driver_launch, config, kernel, parameters = self._resolved
-            driver_launch(_stream(), config, kernel, *parameters)
+            driver_launch(_driver_stream(torch.cuda.current_stream().cuda_stream), config, kernel, *parameters)
 
     def _resolve(self):
         """Launches the kernel compiled for the arguments' types (or loaded from the cache) with its parameters,
@@ -217,7 +225,7 @@ class Launch:
                 self.compiled._prepare_args(kind, value, 0, kept, parameters)
             kernel = self.compiled._codelibrary.get_cufunc().kernel
             resolved = (driver_launch, LaunchConfig(grid=self.blocks, block=self.threads), kernel, tuple(parameters))
-            driver_launch(_stream(), resolved[1], kernel, *resolved[3])
+            driver_launch(_driver_stream(torch.cuda.current_stream().cuda_stream), resolved[1], kernel, *resolved[3])
         except (ImportError, AttributeError, TypeError) as error:  # before the launch: nothing ran
             log.warning("numba-cuda's own launches for %s (parameters not resolved once: %s)", types, error)
             _numba_launch(self.function, self.blocks, self.threads, self.arguments)
