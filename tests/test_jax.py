@@ -5,6 +5,7 @@ extra (.ci/run), where no test may skip. JAX computes in float64 here (jax_enabl
 """
 
 import importlib.util
+import os
 
 import numpy as np
 import pytest
@@ -227,3 +228,46 @@ def test_float32_where_x64_is_off():
         outputs = jax.jit(env.step_env)(jax.random.PRNGKey(0), state, jnp.full(2, 0.5), params)
     expected = reference.step(np.full(2, 0.5, np.float32))[4]["state"]
     np.testing.assert_allclose(np.asarray(outputs[4]["state"]), expected, rtol=1e-5, atol=1e-6)
+
+
+def test_train_py_jax_writes_the_run_folder(tmp_path):
+    """``train.py --jax``: rejax's PPO on the gymnax env (a short run) writes the run folder and the results table
+    of the other trainers, evaluated on the Gymnasium env."""
+    import train
+
+    out = tmp_path / "run"
+    results = train.main(["--jax", "--timesteps", "2048", "--n-envs", "4", "--eval-episodes", "3", "--out", str(out)])
+    assert [result.name.split(" ")[0] for result in results] == ["PPO", "passive", "baseline:"]
+    for name in ("config.yml", "command.txt", "algo.txt", "results.md", "timings.md", "policy.msgpack"):
+        assert (out / name).is_file(), name
+    assert "PPO (rejax" in (out / "results.md").read_text()
+
+
+def test_the_manuals_examples_run(tmp_path):
+    """The ```py blocks of docs/jax.md (not run by tests/test_docs.py, whose venvs have no gymnax) run as written;
+    the gradient example leans the disk to its target and draws its plot."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    blocks = re.findall(r"^```py\n(.*?)^```$", (root / "docs" / "jax.md").read_text(), re.MULTILINE | re.DOTALL)
+    assert len(blocks) == 2
+    outputs = []
+    for code in blocks:
+        script = tmp_path / "snippet.py"
+        script.write_text(code)
+        result = subprocess.run(
+            [sys.executable, str(script)],
+            cwd=tmp_path,
+            env={**os.environ, "PYTHONPATH": str(root), "MPLBACKEND": "Agg"},
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.returncode == 0, result.stderr
+        outputs.append(result.stdout)
+    final_lean = float(re.search(r"final lean ([\d.]+) rad", outputs[1]).group(1))
+    assert abs(final_lean - 0.2) < 0.01
+    assert (tmp_path / "jax_gradient.png").stat().st_size > 0
