@@ -9,12 +9,21 @@ newer CPU fusion emitters compile the model's steps into code 65 times slower th
 its CPU backend, at the first computation: import this subpackage before that, or set the flag yourself.
 """
 
+import logging
 import os
+import sys
 
 CPU_FLAGS = "--xla_cpu_use_fusion_emitters=false"
 """The XLA option this subpackage sets for the CPU (see the module docstring)."""
 if CPU_FLAGS.partition("=")[0] not in os.environ.get("XLA_FLAGS", ""):
     os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {CPU_FLAGS}".strip()
+    started = sys.modules.get("jax._src.xla_bridge")  # JAX's own module: no public test of a started backend
+    if started is not None and started.backends_are_initialized():
+        logging.getLogger(__name__).warning(
+            "rolling_disk_env.jax: JAX's backend has started (importing gymnax starts it), so XLA ignores %s and "
+            "compiles the disk's steps into slow CPU code; import rolling_disk_env.jax first, or set XLA_FLAGS",
+            CPU_FLAGS,
+        )
 
 # The modules that import JAX come after the flag is set.
 
