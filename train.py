@@ -11,12 +11,18 @@ With --device (cuda or cpu), rsl-rl-lib's PPO trains instead, on the torch vecto
 on that device (agents/hyperparams/rsl_rl_ppo.yml, the [gpu] extra): the run directory holds model.pt (rsl_rl's
 checkpoint) and policy.pt (TorchScript) instead of the .zip files, and the same table.
 
+With --jax, rejax's PPO trains on the task's gymnax env (rolling_disk_env.jax), the env, the rollouts and the updates
+compiled into one XLA program (agents/hyperparams/rejax_ppo.yml, the [jax] extra; tasks upright and goto): the run
+directory holds policy.msgpack and timings.md (compile and training time) instead of the .zip files, and the same
+table, evaluated on the Gymnasium env.
+
 examples:
   python train.py                                   # PPO on task upright: the README's main job
   python train.py --task circle                     # PPO on task circle
   python train.py --task circle --algo sac --timesteps 200000 --seed 3 --out runs/circle_sac
   python train.py --verbose 1                       # SB3's training logs and every evaluation
   python train.py --device cuda                     # rsl_rl's PPO on the GPU, 4096 disks (the [gpu] extra)
+  python train.py --jax                             # rejax's PPO on the JAX env, one XLA program (the [jax] extra)
   python -m agents.evaluate --model runs/upright_ppo_0/best_model.zip --render human   # watch the result
 """
 
@@ -105,6 +111,11 @@ def parser() -> argparse.ArgumentParser:
         help="train rsl_rl's PPO with the disks and the policy on this device (default: SB3 on the CPU engine)",
     )
     parser.add_argument(
+        "--jax",
+        action="store_true",
+        help="train rejax's PPO on the JAX env, compiled with it into one XLA program (default: SB3 on the CPU engine)",
+    )
+    parser.add_argument(
         "--verbose", type=int, choices=(0, 1, 2), default=0, help="SB3's output: 1 training logs, 2 debug"
     )
     return parser
@@ -118,12 +129,14 @@ def main(argv: list[str] | None = None) -> list:
 
     if args.device is not None and args.algo != "ppo":
         arguments.error(f"--device trains PPO (rsl_rl's), not {args.algo}")
+    if args.jax and (args.algo != "ppo" or args.device is not None):
+        arguments.error("--jax trains PPO (rejax's) on the CPU JAX finds, without --device or another --algo")
     import rolling_disk_env as rd
     from agents.training import ConfigError, load_hyperparams, train
 
-    name = f"rsl_rl_{args.device}" if args.device else args.algo
+    name = f"rsl_rl_{args.device}" if args.device else "rejax_ppo" if args.jax else args.algo
     out = args.out or Path("runs") / f"{args.task}_{name}_{args.seed}"
-    config = args.config or HYPERPARAMS / f"{'rsl_rl_ppo' if args.device else args.algo}.yml"
+    config = args.config or HYPERPARAMS / f"{'rsl_rl_ppo' if args.device else name}.yml"
     try:
         hyperparams = load_hyperparams(config, rd.TASK_IDS[args.task])
     except (OSError, ConfigError) as error:
@@ -140,6 +153,8 @@ def main(argv: list[str] | None = None) -> list:
         }
         if args.device is not None:
             results = _train_on_device(args.task, args.device, hyperparams, out, common)
+        elif args.jax:
+            results = _train_in_jax(args.task, hyperparams, out, common)
         else:
             results = train(args.task, args.algo, hyperparams, out, **common)
     except ConfigError as error:
@@ -164,6 +179,15 @@ def _train_on_device(task: str, device: str, hyperparams: dict, out: Path, commo
         if not str(error).startswith(("device=", "train.py --device")):  # not a missing extra, GPU or driver
             raise
         sys.exit(f"train.py: error: {error}")
+
+
+def _train_in_jax(task: str, hyperparams: dict, out: Path, common: dict) -> list:
+    """``--jax``: rejax's PPO (``agents.jax_training``), with a clear exit where its extra is missing."""
+    try:
+        from agents.jax_training import train_in_jax
+    except ImportError as error:
+        sys.exit(f"train.py: error: {error}")
+    return train_in_jax(task, hyperparams, out, **common)
 
 
 if __name__ == "__main__":

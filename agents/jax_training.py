@@ -1,0 +1,169 @@
+"""PPO compiled with the env into one XLA program: rejax's PPO on the gymnax env of a task (``train.py --jax``).
+
+The rollouts, the disks' steps and the updates of the policy run in one ``jax.jit``-compiled function of a key
+(rejax, PureJaxRL's style): nothing returns to Python until the training ends. Hyperparameters are blocks of
+``agents/hyperparams/rejax_ppo.yml``, keyed by the per-task env ids like the zoo files; ``env_kwargs`` go to the env,
+``log_std_init`` sets the policy's initial log standard deviation, the other keys go to ``rejax.PPO.create`` as they
+are. The trained policy is then evaluated on the Gymnasium env (the numba engine) over the same seeded episodes as
+every other trainer, so the results tables compare: the run directory gets ``config.yml``, ``command.txt``,
+``algo.txt``, ``results.md``, ``timings.md`` (compile and training time) and ``policy.msgpack`` (the actor's
+parameters and the observation statistics, flax's serialization).
+
+rejax 0.1.3 reads gymnax 0.0's step, ``(obs, state, reward, done, info)``; gymnax 1.0's returns ``terminated`` and
+``truncated`` apart. :class:`DoneStep` gives rejax the older form, ``done = terminated | truncated``, as
+gymnax's own wrappers for such trainers do.
+"""
+
+from __future__ import annotations
+
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import yaml
+from flax import serialization
+
+import rolling_disk_env as rd
+from agents.evaluate import Result
+from agents.training import ConfigError, check_env_kwargs, positive_int, write_results
+from rolling_disk_env.jax import RollingDiskJax
+
+try:
+    from rejax import PPO
+except ImportError as error:
+    raise ImportError(f'train.py --jax needs rejax: pip install torch==2.13.0 -e ".[jax]" ({error})') from error
+
+OWN_KEYS = frozenset({"env_kwargs", "log_std_init"})
+"""The keys of a block that :func:`train_in_jax` reads itself; the others go to ``rejax.PPO.create``."""
+
+
+class DoneStep:
+    """A gymnax 1.0 env whose ``step`` returns gymnax 0.0's five values, ``done`` being ``terminated |
+    truncated`` (what rejax 0.1.3 unpacks); everything else is the env's."""
+
+    def __init__(self, env):
+        self.env = env
+
+    def __getattr__(self, name):
+        if name == "env":  # not set yet (copy.deepcopy, which rejax applies to its config, builds one bare)
+            raise AttributeError(name)
+        return getattr(self.env, name)
+
+    def step(self, key, state, action, params):
+        observation, state, reward, terminated, truncated, info = self.env.step(key, state, action, params)
+        return observation, state, reward, terminated | truncated, info
+
+    def reset(self, key, params):
+        return self.env.reset(key, params)
+
+
+class JaxPolicy:
+    """The trained actor as ``agents.evaluate`` calls it: the mean action of rejax's Gaussian policy on the
+    observation normalized with the training's statistics, for a batch of observations (float32)."""
+
+    def __init__(self, algo, train_state):
+        actor, params = algo.actor, train_state.actor_ts.params
+        statistics = train_state.obs_rms_state if algo.normalize_observations else None
+
+        def act(observations):
+            if statistics is not None:
+                observations = algo.normalize_obs(statistics, observations)
+            mean = actor.apply(params, observations, method=lambda module, x: module._action_dist(x).mode())
+            return jnp.clip(mean, -1.0, 1.0)
+
+        self._act = jax.jit(act)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        return np.asarray(self._act(jnp.asarray(observation, jnp.float32)), dtype=np.float32), None
+
+
+def train_in_jax(
+    task: str,
+    hyperparams: dict,
+    out: Path,
+    *,
+    timesteps: int | None = None,
+    n_envs: int | None = None,
+    seed: int = 0,
+    eval_episodes: int = 100,
+    threads: int = 1,
+    verbose: int = 0,
+) -> list[Result]:
+    """Trains rejax's PPO on the gymnax env of ``task``, then evaluates it against the baselines on the Gymnasium env
+    as :func:`agents.training.train` does (the same seeded episodes, the same table).
+
+    Args:
+        task: a key of :data:`rolling_disk_env.TASK_IDS` (``upright`` or ``goto``).
+        hyperparams: one block of ``agents/hyperparams/rejax_ppo.yml`` (not modified).
+        out: the run directory (created).
+        timesteps: environment steps; default the block's ``total_timesteps``.
+        n_envs: disks stepped together; default the block's ``num_envs``.
+        seed: the training's key, ``jax.random.PRNGKey(seed)``.
+        eval_episodes: seeded episodes of the final evaluation.
+        threads: unused (XLA takes the CPU's cores); accepted as the other trainers take it.
+        verbose: 1 prints the periodic evaluations' mean return.
+
+    Raises:
+        ConfigError: unusable hyperparameters or arguments, before anything is trained or written.
+    """
+    if task not in rd.TASK_IDS:
+        raise ConfigError(f"unknown task {task!r}; tasks: {sorted(rd.TASK_IDS)}")
+    env_id = rd.TASK_IDS[task]
+    env_kwargs = check_env_kwargs(task, hyperparams)
+    config = {key: value for key, value in hyperparams.items() if key not in OWN_KEYS}
+    config["num_envs"] = positive_int("num_envs", config.get("num_envs") if n_envs is None else n_envs)
+    config["total_timesteps"] = positive_int(
+        "total_timesteps", config.get("total_timesteps") if timesteps is None else timesteps
+    )
+    with jax.enable_x64(False):  # rejax's networks and statistics are float32: the env runs in float32 too
+        # rejax trains in whole evaluation periods: no longer than the steps asked for.
+        config["eval_freq"] = min(positive_int("eval_freq", config.get("eval_freq", 4096)), config["total_timesteps"])
+        try:
+            env = RollingDiskJax(task, **env_kwargs)
+        except ValueError as error:
+            raise ConfigError(str(error)) from error
+        try:
+            algo = PPO.create(env=DoneStep(env), env_params=env.default_params, **config)
+        except TypeError as error:
+            raise ConfigError(f"rejax's PPO: {error}") from error
+
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "config.yml").write_text(yaml.safe_dump({env_id: {**hyperparams, **config}}, sort_keys=False))
+        (out / "command.txt").write_text(shlex.join([sys.executable, *sys.argv]) + "\n")
+        (out / "algo.txt").write_text("rejax_ppo\n")
+
+        key = jax.random.PRNGKey(seed)
+        start = algo.init_state(key)
+        if "log_std_init" in hyperparams:
+            actor = start.actor_ts.params
+            log_std = jnp.full_like(actor["params"]["action_log_std"], float(hyperparams["log_std_init"]))
+            actor = {**actor, "params": {**actor["params"], "action_log_std": log_std}}
+            start = start.replace(actor_ts=start.actor_ts.replace(params=actor))
+        began = time.perf_counter()
+        train = jax.jit(lambda state: algo.train(train_state=state)).lower(start).compile()
+        compiled = time.perf_counter()
+        train_state, (_, returns) = jax.block_until_ready(train(start))
+        trained = time.perf_counter()
+        if verbose:
+            for evaluation, mean in enumerate(np.asarray(returns).mean(axis=1)):
+                print(f"evaluation {evaluation}: mean return {mean:.1f}")
+        statistics = train_state.obs_rms_state if algo.normalize_observations else None
+        saved = {"actor": train_state.actor_ts.params, "observation_statistics": statistics}
+        (out / "policy.msgpack").write_bytes(serialization.to_bytes(saved))
+        compile_s, train_s = compiled - began, trained - compiled
+        (out / "timings.md").write_text(
+            "| what | seconds |\n| --- | --- |\n"
+            f"| XLA compile of the training (env, rollouts, updates) | {compile_s:.1f} |\n"
+            f"| training, {config['total_timesteps']} steps | {train_s:.1f} |\n"
+        )
+        title = (
+            f"{task}: PPO (rejax, JAX) seed {seed}, {config['total_timesteps']} steps in {train_s:.1f} s "
+            f"(+ {compile_s:.1f} s XLA compile, {config['num_envs']} envs)"
+        )
+        policy = JaxPolicy(algo, train_state)
+        name = f"PPO (rejax, {config['total_timesteps']} steps)"
+        return write_results(out, title, policy, name, eval_episodes, {"task": task, **env_kwargs})

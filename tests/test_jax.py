@@ -1,0 +1,273 @@
+"""The JAX env (rolling_disk_env.jax) against the numba engine: the same kernels, the same transitions.
+
+Skipped where JAX is not installed (the main test venv); CI runs this module in a venv of its own with the [jax]
+extra (.ci/run), where no test may skip. JAX computes in float64 here (jax_enable_x64), as the engine does.
+"""
+
+import importlib.util
+import os
+
+import numpy as np
+import pytest
+
+if importlib.util.find_spec("jax") is None or importlib.util.find_spec("gymnax") is None:
+    pytest.skip("no jax or gymnax (the [jax] extra; CI runs these in a venv of their own)", allow_module_level=True)
+
+import gymnasium as gym
+import jax
+import jax.numpy as jnp
+
+import rolling_disk_env as rd
+from rolling_disk_env._generated import kernels
+from rolling_disk_env.jax import make, traced
+
+jax.config.update("jax_enable_x64", True)
+
+TASKS = ("upright", "goto")
+METHODS = ("euler", "symplectic_euler", "rk4")
+RTOL = 1e-12
+DISK = (5.0, 9.81, 1.0)  # (m, g, r) of the default DiskParams
+
+
+def numba_env(task: str, **kwargs):
+    return gym.make(rd.TASK_IDS[task], **kwargs).unwrapped
+
+
+def assert_step_agrees(jax_outputs, numba_outputs, rtol=RTOL):
+    """A JAX step's (obs, reward, terminated, info) against the Gymnasium env's, key by key."""
+    observation, reward, terminated, info = jax_outputs
+    expected_observation, expected_reward, expected_terminated, expected_info = numba_outputs
+    np.testing.assert_allclose(np.asarray(observation), expected_observation, rtol=1e-6, atol=1e-7)  # float32
+    np.testing.assert_allclose(float(reward), expected_reward, rtol=rtol, atol=1e-14)
+    assert bool(terminated) == expected_terminated
+    assert info.keys() >= expected_info.keys()
+    for key, expected in expected_info.items():
+        np.testing.assert_allclose(np.asarray(info[key]), expected, rtol=rtol, atol=1e-12, err_msg=key)
+
+
+def random_states(rng, count):
+    """Rolling states within the tasks' range: leans up to 0.6 rad, rates up to 2 rad/s."""
+    states = rng.uniform(-1.0, 1.0, (count, 8)) * [3, 3, 3, 0.6, 3, 2, 2, 2]
+    return states
+
+
+def test_lean_jacobians_equal_the_derived_ones():
+    """jacfwd of the JAX reading of the lean derivative is SymPy's lean_jacobians, at random states, upright and at
+    rest, with no NaN."""
+    derivative = traced(kernels.lean_derivative)
+
+    def slope(y, u, m, g, r):
+        return jnp.stack(derivative(y, u[0], u[1], m, g, r))
+
+    jacobians = jax.jit(jax.jacfwd(slope, argnums=(0, 1)))
+    rng = np.random.default_rng(0)
+    states = [*rng.uniform(-1.0, 1.0, (100, 4)) * [1.2, 3, 3, 3], [0.0, 1.0, 0.0, 0.0], [0.0] * 4]
+    for y in states:
+        u = rng.uniform(-5.0, 5.0, 2)
+        m, g, r = rng.uniform(0.5, 2.0, 3) * DISK
+        a, b = jacobians(jnp.asarray(y), jnp.asarray(u), m, g, r)
+        got = np.concatenate([np.ravel(a), np.ravel(b)])
+        expected = np.array(kernels.lean_jacobians.py_func(tuple(y), u[0], u[1], m, g, r))
+        assert np.all(np.isfinite(got))
+        np.testing.assert_allclose(got, expected, rtol=RTOL, atol=1e-12 * np.abs(expected).max())
+
+
+def rollout_cost(step, x, torques, dt, disk):
+    """A cost of a rollout: the lean and the spin rate's error to 1 rad/s, squared, summed over the steps."""
+    cost = 0.0
+    for tau in torques:
+        x = step(x, dt, tau[0], tau[1], *disk)
+        cost = cost + x[3] * x[3] + 0.1 * (x[5] - 1.0) * (x[5] - 1.0)
+    return cost
+
+
+def test_rollout_gradient_matches_finite_differences_of_the_engine():
+    """jax.grad of a 100-step RK4 rollout's cost w.r.t. the torques and the start state equals central finite
+    differences of the numba kernels' rollout to 1e-6, relative to the gradient's largest component (the
+    differences' round-off, 1e-16 of the cost over h, is about 1e-10 of it)."""
+    step = traced(kernels.state_rk4_step)
+
+    def cost(x0, torques):
+        def body(carry, tau):
+            x, total = carry
+            x = step(tuple(x), 0.02, tau[0], tau[1], *DISK)
+            total = total + x[3] * x[3] + 0.1 * (x[5] - 1.0) * (x[5] - 1.0)
+            return (jnp.stack(x), total), None
+
+        return jax.lax.scan(body, (x0, 0.0), torques)[0][1]
+
+    rng = np.random.default_rng(1)
+    x0 = np.array([0.0, 0.0, 0.3, 0.05, 0.2, 1.0, 0.02, -0.03])
+    torques = rng.uniform(-0.5, 0.5, (100, 2))
+    grad_x0, grad_torques = jax.jit(jax.grad(cost, argnums=(0, 1)))(jnp.asarray(x0), jnp.asarray(torques))
+
+    def numba_cost(x, tau):
+        return rollout_cost(kernels.state_rk4_step, tuple(x), tau, 0.02, DISK)
+
+    h = 1e-5
+    scale = max(np.abs(grad_x0).max(), np.abs(grad_torques).max())
+    for j in (3, 5, 6, 7):
+        plus, minus = x0.copy(), x0.copy()
+        plus[j] += h
+        minus[j] -= h
+        central = (numba_cost(plus, torques) - numba_cost(minus, torques)) / (2 * h)
+        np.testing.assert_allclose(float(grad_x0[j]), central, rtol=0, atol=1e-6 * scale)
+    for k, j in ((0, 0), (0, 1), (50, 1), (99, 0)):
+        plus, minus = torques.copy(), torques.copy()
+        plus[k, j] += h
+        minus[k, j] -= h
+        central = (numba_cost(x0, plus) - numba_cost(x0, minus)) / (2 * h)
+        np.testing.assert_allclose(float(grad_torques[k, j]), central, rtol=0, atol=1e-6 * scale)
+
+
+@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("substeps", [1, 3])
+def test_step_equals_the_engine(task, method, substeps):
+    """From the engine's state at each step and the same action (teacher-forced), the JAX step gives the Gymnasium
+    env's observation, reward, termination and info; and left to run on its own for 200 steps (or to the end of the
+    episode), it stays within 1e-12 of the engine."""
+    kwargs = {"integrator": method, "substeps": substeps}
+    env, params = make(task, **kwargs)
+    step = jax.jit(env.step_env)
+    reference = numba_env(task, **kwargs)
+    rng = np.random.default_rng(2)
+    key = jax.random.PRNGKey(0)
+    for seed in range(3):
+        _, info = reference.reset(seed=seed)
+        goal = np.array(list(reference.goal.values()))
+        observation, free = env.start_from(info["state"], goal, params)
+        for _ in range(200):
+            action = rng.uniform(-1.0, 1.0, 2).astype(np.float32)
+            _, forced = env.start_from(info["state"], goal, params)
+            expected = reference.step(action)
+            expected = (expected[0], expected[1], expected[2], expected[4])
+            observation, _, reward, terminated, info_jax = step(key, forced, jnp.asarray(action), params)
+            assert_step_agrees((observation, reward, terminated, info_jax), expected)
+            observation, free, reward, terminated, info_free = step(key, free, jnp.asarray(action), params)
+            assert_step_agrees((observation, reward, terminated, info_free), expected)
+            info = expected[3]
+            if expected[2]:
+                break
+
+
+def test_slipped_where_the_contact_needs_more_friction():
+    """With a finite friction_coefficient, a step whose contact needs more ends with SLIPPED, as in the engine."""
+    env, params = make("upright", friction_coefficient=0.01)
+    reference = numba_env("upright", friction_coefficient=0.01)
+    _, info = reference.reset(seed=0)
+    _, state = env.start_from(info["state"], np.array(list(reference.goal.values())), params)
+    action = np.array([1.0, -1.0], np.float32)
+    expected = reference.step(action)
+    outputs = env.step_env(jax.random.PRNGKey(0), state, jnp.asarray(action), params)
+    assert expected[4]["termination"] == rd.Termination.SLIPPED
+    assert_step_agrees((outputs[0], outputs[2], outputs[3], outputs[4]), (*expected[:3], expected[4]))
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_vmap_and_jit_agree_with_single_steps(task):
+    """A step vmapped over 1,024 disks equals 1,024 single steps; jit equals the eager step within 1e-14."""
+    env, params = make(task)
+    keys = jax.random.split(jax.random.PRNGKey(3), 1024)
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    actions = jax.random.uniform(jax.random.PRNGKey(4), (1024, 2), minval=-1.0, maxval=1.0)
+    batch = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))(keys, states, actions, params)
+    single = jax.jit(env.step_env)
+    for i in range(0, 1024, 97):
+        state = jax.tree.map(lambda leaf, i=i: leaf[i], states)
+        one = single(keys[i], state, actions[i], params)
+        for got, expected in zip(jax.tree.leaves(batch), jax.tree.leaves(one)):
+            np.testing.assert_allclose(np.asarray(got)[i], np.asarray(expected), rtol=1e-14, atol=1e-14)
+    eager = env.step_env(keys[0], jax.tree.map(lambda leaf: leaf[0], states), actions[0], params)
+    compiled = single(keys[0], jax.tree.map(lambda leaf: leaf[0], states), actions[0], params)
+    for got, expected in zip(jax.tree.leaves(compiled), jax.tree.leaves(eager)):
+        np.testing.assert_allclose(np.asarray(got), np.asarray(expected), rtol=1e-14, atol=1e-14)
+
+
+def test_truncation_keeps_the_final_observation():
+    """At max_steps_in_episode the step truncates, resets, and hands the last observation in
+    info["final_observation"] (gymnax 1.0's convention)."""
+    env, params = make("upright", initial_ranges={"dphi": (3.0, 3.0), "theta": (0.0, 0.0), "dtheta": (0.0, 0.0)})
+    params = params.replace(max_steps_in_episode=5)
+    key = jax.random.PRNGKey(5)
+    observation, state = env.reset(key, params)
+    step = jax.jit(env.step)
+    for t in range(5):
+        key, now = jax.random.split(key)
+        observation, state, _, terminated, truncated, info = step(now, state, jnp.zeros(2), params)
+        assert not bool(terminated)
+        assert bool(truncated) == (t == 4)
+    assert int(state.time) == 0
+    final = np.asarray(info["final_observation"])
+    assert not np.array_equal(final, np.asarray(observation))
+    np.testing.assert_allclose(final[2], 3.0 - 1.0, rtol=1e-2)  # still spinning at 3 rad/s, target 1 rad/s
+
+
+def test_vmap_over_disks_of_different_sizes():
+    """vmap over EnvParams: each disk of a batch of radii steps as a single env of that disk."""
+    env, params = make("upright")
+    radii = jnp.array([0.5, 1.0, 2.0])
+    batch = jax.vmap(lambda r: params.replace(radius=r))(radii)
+    x0 = jnp.array([0.0, 0.0, 0.0, 0.1, 0.0, 1.0, 0.0, 0.0])
+    step = jax.vmap(lambda p: env.step_env(jax.random.PRNGKey(0), env.start_from(x0, [1.0], p)[1], jnp.ones(2), p))
+    states = step(batch)[1].x
+    for i, r in enumerate((0.5, 1.0, 2.0)):
+        reference = numba_env("upright", params=rd.DiskParams(radius=r))
+        reference.reset(seed=0, options={"state": np.asarray(x0)})
+        np.testing.assert_allclose(np.asarray(states[i]), reference.step(np.ones(2, np.float32))[4]["state"], rtol=RTOL)
+
+
+def test_float32_where_x64_is_off():
+    """With jax_enable_x64 off, the env computes in float32, within float32's round-off of the engine."""
+    reference = numba_env("upright")
+    _, info = reference.reset(seed=0)
+    with jax.enable_x64(False):
+        env, params = make("upright")
+        _, state = env.start_from(info["state"], [1.0], params)
+        assert state.x.dtype == jnp.float32
+        outputs = jax.jit(env.step_env)(jax.random.PRNGKey(0), state, jnp.full(2, 0.5), params)
+    expected = reference.step(np.full(2, 0.5, np.float32))[4]["state"]
+    np.testing.assert_allclose(np.asarray(outputs[4]["state"]), expected, rtol=1e-5, atol=1e-6)
+
+
+def test_train_py_jax_writes_the_run_folder(tmp_path):
+    """``train.py --jax``: rejax's PPO on the gymnax env (a short run) writes the run folder and the results table
+    of the other trainers, evaluated on the Gymnasium env."""
+    import train
+
+    out = tmp_path / "run"
+    results = train.main(["--jax", "--timesteps", "2048", "--n-envs", "4", "--eval-episodes", "3", "--out", str(out)])
+    assert [result.name.split(" ")[0] for result in results] == ["PPO", "passive", "baseline:"]
+    for name in ("config.yml", "command.txt", "algo.txt", "results.md", "timings.md", "policy.msgpack"):
+        assert (out / name).is_file(), name
+    assert "PPO (rejax" in (out / "results.md").read_text()
+
+
+def test_the_manuals_examples_run(tmp_path):
+    """The ```py blocks of docs/jax.md (not run by tests/test_docs.py, whose venvs have no gymnax) run as written;
+    the gradient example leans the disk to its target and draws its plot."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    blocks = re.findall(r"^```py\n(.*?)^```$", (root / "docs" / "jax.md").read_text(), re.MULTILINE | re.DOTALL)
+    assert len(blocks) == 2
+    outputs = []
+    for code in blocks:
+        script = tmp_path / "snippet.py"
+        script.write_text(code)
+        result = subprocess.run(
+            [sys.executable, str(script)],
+            cwd=tmp_path,
+            env={**os.environ, "PYTHONPATH": str(root), "MPLBACKEND": "Agg"},
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.returncode == 0, result.stderr
+        outputs.append(result.stdout)
+    final_lean = float(re.search(r"final lean ([\d.]+) rad", outputs[1]).group(1))
+    assert abs(final_lean - 0.2) < 0.01
+    assert (tmp_path / "jax_gradient.png").stat().st_size > 0
