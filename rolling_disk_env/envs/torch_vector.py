@@ -242,22 +242,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
                 functools.partial(torch.gt, info[first + 4], 0.0, out=sliding),
             ]
             state, slip = states.T, info[first + 2 : first + 4].T
-        infos = {
-            "state": state,
-            "energy": info[engine.ENERGY],
-            "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
-            "normal_force": info[engine.NORMAL_FORCE],
-            "required_friction": info[engine.REQUIRED_FRICTION],
-            "sliding": sliding,
-            "slip_velocity": slip,
-            "is_success": out.flags[engine.SUCCESS],
-            "termination": out.codes,
-        }
-        infos.update(zip(self._term_keys, info[engine.TERMS :]))
-        masked = {}
-        for key, value in infos.items():
-            masked[key], masked["_" + key] = value, mask
-        return masked, refresh
+        return self._masked_infos(out, state, sliding, slip, mask), refresh
 
     @staticmethod
     def _observations(observations: np.ndarray) -> torch.Tensor:

@@ -197,8 +197,15 @@ class RollingDiskVectorEnv(VectorEnv):
             sliding, slip = np.zeros(self.num_envs, bool), np.zeros((self.num_envs, 2))
         else:
             sliding, slip = info[first + 4] > 0.0, info[first + 2 : first + 4].T
+        mask = np.ones(self.num_envs, dtype=bool) if present is None else present
+        return self._masked_infos(out, info[self._batch.state_rows].T, sliding, slip, mask)
+
+    def _masked_infos(self, out: Outputs, state, sliding, slip, mask) -> dict:
+        """The info keys of ``out`` (its rows as they are, but the ``state``, ``sliding`` flags and ``slip``
+        velocities given), each with its mask ``"_key"``: ``mask``."""
+        info = out.info
         infos = {
-            "state": info[self._batch.state_rows].T,
+            "state": state,
             "energy": info[engine.ENERGY],
             "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
             "normal_force": info[engine.NORMAL_FORCE],
@@ -209,7 +216,6 @@ class RollingDiskVectorEnv(VectorEnv):
             "termination": out.codes,  # RUNNING (0) where not terminated
         }
         infos.update(zip(self._term_keys, info[engine.TERMS :]))
-        mask = np.ones(self.num_envs, dtype=bool) if present is None else present
         masked = {}
         for key, value in infos.items():
             masked[key], masked["_" + key] = value, mask
