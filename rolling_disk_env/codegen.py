@@ -666,16 +666,16 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2.\"\"\"
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2.\"\"\"
     {unpack}
     settings = {settings}
-    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS]){track}
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
-{integrate}{outputs}{track}
+{integrate}{outputs}
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -769,7 +769,7 @@ def reset_share(k, resets, batch, setup, out):
         lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
         lanes[STEP_SIZE, k, i] = config[PERIOD]
         steps[k, i] = 0
-        lanes[TRACKING_SUM, k, i] = lanes[HALF_SUM, k, i] = 0.0
+        lanes[TRACKING_SUM, k, i] = lanes[TRACKING_WEIGHT, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
 {report}
@@ -827,11 +827,17 @@ _ADVANCE = {
 }
 _SUCCESS = {
     "survive": ("code == RUNNING", "True"),
-    "track": ("code == RUNNING", "True"),
+    "track": ("(code == RUNNING) & within", "True"),
     "reach": ("code == REACHED", "False"),
 }
-"""Per success rule: the flag SUCCESS after a step (for TRACK, before :func:`rolling_disk_env.engine.track`), and
-at the start of an episode."""
+"""Per success rule: the flag SUCCESS after a step (for TRACK, ``within`` is :data:`_TRACKING`'s), and at the start of
+an episode."""
+_TRACKING = """
+        error = task.tracking_error(x, goal, settings)
+        total, weight = lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i]
+        total, weight, within = engine.track(total, weight, error, decay, bound)
+        lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i] = total, weight"""
+"""The success rule TRACK in the last loop of a step (:func:`rolling_disk_env.engine.track`)."""
 
 
 def generate_steps(task) -> str:
@@ -889,9 +895,7 @@ def generate_steps(task) -> str:
                 f"        info[OBSERVATION + {j}, k, i] = min(max(observation[{j}], -bounds[{j}]), bounds[{j}])"
                 for j in range(observations)
             ),
-            "{tracking}": "\n        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)"
-            if rule == "track"
-            else "",
+            "{tracking}": _TRACKING if rule == "track" else "",
             "{success}": success,
         },
     )
@@ -904,7 +908,7 @@ def generate_steps(task) -> str:
             "{hybrid_checks}": _fill(CHECKS_TEMPLATE, hybrid_checks),
         },
     )
-    track = "\n    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])" if rule == "track" else ""
+    track = "\n    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]" if rule == "track" else ""
     steps = []
     for method, integrate, velocity, described in [
         *(
@@ -934,10 +938,11 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM,",
-            "    LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
+            "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,",
+            "    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
             "    REQUIRED_FRICTION, REWARD, ROLLING, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,",
-            "    SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,",
+            "    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,",
+            "    TRACKING_WEIGHT, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
             f"import {module.__name__} as task",

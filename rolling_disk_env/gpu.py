@@ -153,8 +153,6 @@ class DeviceBatch(DiskBatch):
         require_device()
         super().__init__(config, num_envs, max_episode_steps)
         self.choice = None
-        # A step limit bounds the step counts within the history (sized for it): no copy of them to look at.
-        self._growing = self._growing and max_episode_steps is None
         self.device = torch_device()
         method = config.integrator if config.contact == "rolling" else "contact"
         self._step_kernel, self._reset_kernel = (
@@ -187,13 +185,12 @@ class DeviceBatch(DiskBatch):
         """Copies the batch's arrays from device memory into the host's (no copy under the simulator)."""
         if SIMULATED:
             return
-        lanes, goals, steps, error_sums, listed = (to_host(array) for array in self._device[0])
+        lanes, goals, steps = (to_host(array) for array in self._device[0])
         self.lanes[:], self.goals[:], self.steps[:] = (
             lanes.reshape(self.lanes.shape),
             goals.reshape(self.goals.shape),
             steps.reshape(-1),
         )
-        self.error_sums, self.listed = error_sums, listed
 
     @property
     def states(self) -> np.ndarray:
@@ -226,8 +223,6 @@ class DeviceBatch(DiskBatch):
         finite = torch.isfinite(actions).all(dim=1)
         if not bool(finite.all()):
             return int(torch.nonzero(~finite)[0, 0])
-        if self._growing:
-            self._grow_tracking()
         self._actions.copy_(actions)
         if resetting is None:
             self._mask.zero_()
@@ -251,13 +246,3 @@ class DeviceBatch(DiskBatch):
         host[rows] = words
         if not SIMULATED:
             self.rngs.copy_to_device(host, stream=_stream())
-
-    def _grow_tracking(self) -> None:
-        """:meth:`DiskBatch._grow_tracking <rolling_disk_env.envs.batch.DiskBatch._grow_tracking>`: when it looks at
-        the step counts, they are copied to the host, and the other arrays only where the history must grow. (With a
-        step limit the history holds every episode, and the batch never looks: :meth:`__init__`.)"""
-        if self._unchecked <= 1:
-            self.steps[:] = to_host(self._device[0][2]).reshape(-1)
-            if int(self.steps[: self.num_envs].max()) + 1 >= self.tracked_steps:
-                self._to_host()
-        super()._grow_tracking()

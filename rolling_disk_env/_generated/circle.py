@@ -18,15 +18,16 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM,
-    LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
+    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,
+    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
     REQUIRED_FRICTION, REWARD, ROLLING, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,
-    SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,
+    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,
+    TRACKING_WEIGHT, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.circle as task
 
-TASK_SOURCE = "ef82fb01948ddde1c490ececd7f877a9e2df1a2f8a75f16f20aaa885a411a39d"
+TASK_SOURCE = "39b69a8d2f05e8a30377af5ee51b7dccaae867ad51c6d533a6f7ccc286ea16c0"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
@@ -66,7 +67,7 @@ def reset_share(k, resets, batch, setup, out):
     row or an entry per disk, disk i of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split
     into shares as :func:`step_rk4_share` takes them."""
     mask, rngs, uniforms, given = resets
-    lanes, goals, steps, error_sums, listed = batch
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     options = (settings[0], settings[1], settings[2], settings[3])
@@ -102,7 +103,7 @@ def reset_share(k, resets, batch, setup, out):
         lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
         lanes[STEP_SIZE, k, i] = config[PERIOD]
         steps[k, i] = 0
-        lanes[TRACKING_SUM, k, i] = lanes[HALF_SUM, k, i] = 0.0
+        lanes[TRACKING_SUM, k, i] = lanes[TRACKING_WEIGHT, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
         info[0, k, i], info[1, k, i] = x[0], x[1]
@@ -144,15 +145,16 @@ def step_euler_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2], settings[3])
     friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
@@ -242,11 +244,13 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
+        error = task.tracking_error(x, goal, settings)
+        total, weight = lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i]
+        total, weight, within = engine.track(total, weight, error, decay, bound)
+        lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i] = total, weight
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
-        flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
+        flags[SUCCESS, k, i] = (code == RUNNING) & within
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -287,15 +291,16 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2], settings[3])
     friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
@@ -385,11 +390,13 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
+        error = task.tracking_error(x, goal, settings)
+        total, weight = lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i]
+        total, weight, within = engine.track(total, weight, error, decay, bound)
+        lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i] = total, weight
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
-        flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
+        flags[SUCCESS, k, i] = (code == RUNNING) & within
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -430,15 +437,16 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2], settings[3])
     friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     substeps = int(config[SUBSTEPS])
@@ -528,11 +536,13 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
+        error = task.tracking_error(x, goal, settings)
+        total, weight = lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i]
+        total, weight, within = engine.track(total, weight, error, decay, bound)
+        lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i] = total, weight
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
-        flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
+        flags[SUCCESS, k, i] = (code == RUNNING) & within
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -573,15 +583,16 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2], settings[3])
     friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     period, rtol, atol = config[PERIOD], config[RTOL], config[ATOL]
@@ -650,11 +661,13 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
+        error = task.tracking_error(x, goal, settings)
+        total, weight = lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i]
+        total, weight, within = engine.track(total, weight, error, decay, bound)
+        lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i] = total, weight
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
-        flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
+        flags[SUCCESS, k, i] = (code == RUNNING) & within
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)
@@ -695,15 +708,16 @@ def step_contact_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2], settings[3])
     friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
@@ -824,11 +838,13 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         info[OBSERVATION + 5, k, i] = min(max(observation[5], -bounds[5]), bounds[5])
         info[OBSERVATION + 6, k, i] = min(max(observation[6], -bounds[6]), bounds[6])
         info[OBSERVATION + 7, k, i] = min(max(observation[7], -bounds[7]), bounds[7])
-        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)
+        error = task.tracking_error(x, goal, settings)
+        total, weight = lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i]
+        total, weight, within = engine.track(total, weight, error, decay, bound)
+        lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i] = total, weight
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
-        flags[SUCCESS, k, i] = code == RUNNING
-    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])
+        flags[SUCCESS, k, i] = (code == RUNNING) & within
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
         reset_share(k, resets, batch, setup, out)

@@ -18,10 +18,11 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM,
-    LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
+    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,
+    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
     REQUIRED_FRICTION, REWARD, ROLLING, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,
-    SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,
+    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,
+    TRACKING_WEIGHT, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.goto as task
@@ -66,7 +67,7 @@ def reset_share(k, resets, batch, setup, out):
     row or an entry per disk, disk i of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split
     into shares as :func:`step_rk4_share` takes them."""
     mask, rngs, uniforms, given = resets
-    lanes, goals, steps, error_sums, listed = batch
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     options = (settings[0], settings[1], settings[2])
@@ -102,7 +103,7 @@ def reset_share(k, resets, batch, setup, out):
         lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
         lanes[STEP_SIZE, k, i] = config[PERIOD]
         steps[k, i] = 0
-        lanes[TRACKING_SUM, k, i] = lanes[HALF_SUM, k, i] = 0.0
+        lanes[TRACKING_SUM, k, i] = lanes[TRACKING_WEIGHT, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
         info[0, k, i], info[1, k, i] = x[0], x[1]
@@ -144,11 +145,11 @@ def step_euler_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -285,11 +286,11 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -426,11 +427,11 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -567,11 +568,11 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -687,11 +688,11 @@ def step_contact_share(k, actions, batch, setup, out, resets):
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])

@@ -36,7 +36,7 @@ import numpy as np
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import ROLLING_INDICES
 from rolling_disk_env.envs.config import EnvConfig
-from rolling_disk_env.tasks.base import TRACK, Task
+from rolling_disk_env.tasks.base import Task
 
 GIVEN_SIZE = 10
 """Columns of the initial states a reset takes (``engine.ResetArrays.given``): the 8-state, then the centre's
@@ -222,16 +222,6 @@ def keep_freed_memory() -> bool:
         return False
 
 
-def _touched(array: np.ndarray) -> np.ndarray:
-    """``array`` filled with zeros, written now. The system maps an allocation's pages at their first write (and
-    ``np.zeros`` leaves them unwritten): a step that wrote the first sums of a block of the success rule's history
-    (``engine.track``) waited for its pages. Measured on `circle`'s first 337 steps at N = 4096, one thread, AVX2
-    code, in a process that had just compiled the step: 65 to 68 ns a disk-step in 4 runs of 5, against 42 to 45 in
-    5 of 5 with the history written at once."""
-    array.fill(0.0)
-    return array
-
-
 def columns(num_envs: int) -> int:
     """Columns of a share of ``num_envs`` disks: ``num_envs``, and from 256 disks on a few more (idle, never
     reported), so that a row of the share spans an odd number of 64-byte cache lines. With rows of a power-of-two
@@ -349,16 +339,6 @@ class DiskBatch:
         self.lanes[[engine.ANGLES + 1, engine.ANGLES + 3]] = 1.0  # kernels.angles of the zero state: the padding's
         self.goals = np.zeros((len(task.goal_names), width))
         self.steps = np.zeros(width, dtype=np.int64)
-        # Tracking errors summed over each episode, for the success rule TRACK (engine.track). An episode truncated
-        # at max_episode_steps may be stepped once more before its reset (next-step autoreset): sums up to step
-        # max_episode_steps + 1. The history grows where episodes get longer: without truncation, or a batch stepped
-        # without its resets (the step writes where the step counts say, and must stay within the array).
-        tracked = task.success == TRACK
-        self._growing = tracked
-        self._unchecked = 0  # steps before the history must be looked at again (_grow_tracking)
-        history = -(-((max_episode_steps or 1024) + 2) // engine.SUM_BLOCK) if tracked else -engine.HISTORY
-        self.error_sums = _touched(np.empty((self.threads, engine.HISTORY + history, self.share, engine.SUM_BLOCK)))
-        self.listed = np.zeros((self.threads, self.share if tracked else 0), dtype=np.int64)
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, GIVEN_SIZE), np.nan)
         self.observation_rows = slice(engine.TERMS + self.terms, engine.TERMS + self.terms + self.observation_size)
@@ -417,16 +397,10 @@ class DiskBatch:
         self._arrays = engine.bundle(self.shares(), self.setup)
 
     def shares(self) -> tuple:
-        """The lanes, goals, step counts, error sums and list (:class:`~rolling_disk_env.engine.BatchArrays`, a plain
-        tuple), split into the shares (views): ``[row, k, i]`` for disk i of share k."""
+        """The lanes, goals and step counts (:class:`~rolling_disk_env.engine.BatchArrays`, a plain tuple), split into
+        the shares (views): ``[row, k, i]`` for disk i of share k."""
         split = (self.threads, self.share)
-        return (
-            self.lanes.reshape(-1, *split),
-            self.goals.reshape(-1, *split),
-            self.steps.reshape(split),
-            self.error_sums,
-            self.listed,
-        )
+        return self.lanes.reshape(-1, *split), self.goals.reshape(-1, *split), self.steps.reshape(split)
 
     def reset(
         self, mask: np.ndarray, out: Outputs, rngs: np.ndarray | None = None, states: np.ndarray | None = None
@@ -465,8 +439,6 @@ class DiskBatch:
         Returns:
             The first disk whose action is not finite (then nothing was stepped or reset), or -1.
         """
-        if self._growing:
-            self._grow_tracking()
         # Without resets, the step compiled for none (4 arrays fewer to pass: 0.4 us of a single env's step).
         rngs = self._no_rngs if rngs is None else rngs
         resets = None if resetting is None else (resetting, rngs, self.uniforms, self.no_state)
@@ -479,26 +451,6 @@ class DiskBatch:
             bad = self._step(threaded, arguments)(*arguments)
             self.choice.record(threaded, time.perf_counter() - start)
         return bad
-
-    @property
-    def tracked_steps(self) -> int:
-        """The steps whose tracking-error sums the history of :attr:`error_sums` holds."""
-        return (self.error_sums.shape[1] - engine.HISTORY) * engine.SUM_BLOCK
-
-    def _grow_tracking(self) -> None:
-        """Doubles the error sums' history before a step could write past it (longer episodes than it holds). A step
-        adds at most one to each step count, so after a look at the longest episode the next is due when it could
-        have reached the end of the history: the look (a max over the disks) took several microseconds of a single
-        env's step."""
-        self._unchecked -= 1
-        if self._unchecked > 0:
-            return
-        longest = int(self.steps[: self.num_envs].max())
-        if longest + 1 >= self.tracked_steps:
-            history = self.error_sums[:, engine.HISTORY :]
-            self.error_sums = np.concatenate([self.error_sums, _touched(np.empty_like(history))], axis=1)
-            self._bundle()
-        self._unchecked = self.tracked_steps - 1 - longest
 
     def _step(self, threaded: bool, arguments: tuple):
         """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
