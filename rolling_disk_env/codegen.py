@@ -661,7 +661,7 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
+    (:func:`{reset}`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -677,16 +677,21 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     engine.action_torques(actions, actuators, lanes, k, disks)
 {integrate}{outputs}
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
-        reset_share(k, resets, batch, setup, out)
+    {reset}(k, resets, batch, setup, out)
 
 
 @kernel
-def step_{method}(actions, arrays, out, resets):
-    \"\"\"Steps a batch (see :func:`step_{method}_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
-    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
-    nothing is stepped), or -1.\"\"\"
-    batch, setup = arrays.batch, arrays.setup
+def step_{method}(actions, arrays, out, stepping):
+    \"\"\"Steps a batch (see :func:`step_{method}_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
+    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
+    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
+    resets' mask (:func:`{reset}`) and returns -1. One compiled function serves a configuration's resets and steps,
+    in the single env and the vector env.\"\"\"
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(batch[0].shape[1]):
+            {reset}(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -695,52 +700,38 @@ def step_{method}(actions, arrays, out, resets):
 
 
 @parallel_kernel
-def step_{method}_threads(actions, arrays, out, resets):
+def step_{method}_threads(actions, arrays, out, stepping):
     \"\"\":func:`step_{method}` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share).\"\"\"
-    batch, setup = arrays.batch, arrays.setup
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in prange(batch[0].shape[1]):
+            {reset}(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
             step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 """
-"""The fused step of one task with one integrator, for a batch of disks."""
+"""The fused step of one task with one integrator, for a batch of disks, and its callers, which also reset."""
 
 RESET_TEMPLATE = """
-@kernel
-def reset(resets, arrays, out):
-    \"\"\"Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`; ``arrays`` the batch's
-    :class:`~rolling_disk_env.engine.Bundle`), the shares one after the other on the calling thread.\"\"\"
-    batch, setup = arrays.batch, arrays.setup
-    for k in range(batch[0].shape[1]):
-        reset_share(np.int64(k), resets, batch, setup, out)
-
-
-@parallel_kernel
-def reset_threads(resets, arrays, out):
-    \"\"\":func:`reset` with the shares on numba's threads, a share per thread.\"\"\"
-    batch, setup = arrays.batch, arrays.setup
-    for k in prange(batch[0].shape[1]):
-        reset_share(np.int64(k), resets, batch, setup, out)
-
 
 @kernel
-def reset_share(k, resets, batch, setup, out):
-    \"\"\"Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants (those
-    randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all
-    from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
+def {reset}(k, resets, batch, setup, out):
+    \"\"\"Starts an episode in each disk of share k that the mask of ``resets`` holds{described}: its disk constants
+    (those randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its
+    ranges, all from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
     the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
-    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state. Under
-    the ``"sliding"`` and ``"coulomb"`` contacts, the centre's velocity (NaN: from the rolling constraint) and the
-    hybrid's report at zero torque. ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a
-    row or an entry per disk, disk i of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split
-    into shares as :func:`step_rk4_share` takes them.\"\"\"
+    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state.{extra}
+    ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i
+    of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split into shares as
+    :func:`step_rk4_share` takes them.\"\"\"
     mask, rngs, uniforms, given = resets
     {unpack}
-    options = {settings}
-    friction, hybrid, coulomb = config[FRICTION], config[CONTACT] != ROLLING, config[CONTACT] == COULOMB
+    options = {settings}{friction}
     first = k * lanes.shape[2]
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
@@ -781,17 +772,32 @@ def reset_share(k, resets, batch, setup, out):
             info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
         flags[TERMINATED, k, i] = False
         flags[TRUNCATED, k, i] = False
-        flags[SUCCESS, k, i] = {success_at_start}
-        if hybrid:
-            state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
-            lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
-            lanes[SLIDES, k, i] = contact[7]
-{contact_report}
-            info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
-            info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
-            info[CONTACT_ROWS + 4, k, i] = contact[7]
+        flags[SUCCESS, k, i] = {success_at_start}{contact_start}
 """
-"""Starting episodes of one task."""
+"""Starting episodes of one task: a function for the ``"rolling"`` contact (``reset_share``), another for the
+``"sliding"`` and ``"coulomb"`` contacts (``reset_contact_share``, :data:`CONTACT_START`), so that a rolling env
+compiles none of the hybrid's code."""
+CONTACT_START = """
+        state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
+        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
+        lanes[SLIDES, k, i] = contact[7]
+{contact_report}
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
+        info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
+        info[CONTACT_ROWS + 4, k, i] = contact[7]"""
+"""The end of ``reset_contact_share``: the centre's velocity (NaN: from the rolling constraint) and the hybrid's
+report at zero torque."""
+_RESETS = {
+    "rolling": ("reset_share", "", "", "", ""),
+    "contact": (
+        "reset_contact_share",
+        ' under the ``"sliding"`` or ``"coulomb"`` contact',
+        "\n    Then the centre's velocity (NaN: from the rolling constraint) and the hybrid's report at zero torque.",
+        "\n    friction, coulomb = config[FRICTION], config[CONTACT] == COULOMB",
+        CONTACT_START,
+    ),
+}
+"""Per contact family: the reset function's name, the words its docstring adds, and the code it adds."""
 
 _ADVANCE = {
     "dopri5": """    period, rtol, atol = config[PERIOD], config[RTOL], config[ATOL]
@@ -861,7 +867,7 @@ def generate_steps(task) -> str:
         "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8, "k, i"),
         "{store_angles}": _store_angles(8),
         "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8, "k, i") + "\n        codes[k, i] = code",
-        "{contact_report}": _stores("info", _REPORTED, _items("contact", 5), 12, "k, i"),
+        "{contact_report}": _stores("info", _REPORTED, _items("contact", 5), 8, "k, i"),
     }
     step_fields = {
         **fields,
@@ -924,7 +930,8 @@ def generate_steps(task) -> str:
     ]:
         template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
         template = template.replace("{velocity}", velocity).replace("{track}", track)
-        steps.append(_fill(template, {**step_fields, "{method}": method, "{described}": described}))
+        reset = _RESETS["contact" if method == "contact" else "rolling"][0]
+        steps.append(_fill(template, {**step_fields, "{method}": method, "{described}": described, "{reset}": reset}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
@@ -940,7 +947,7 @@ def generate_steps(task) -> str:
             "from rolling_disk_env.engine import (",
             "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,",
             "    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
-            "    REQUIRED_FRICTION, REWARD, ROLLING, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,",
+            "    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,",
             "    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,",
             "    TRACKING_WEIGHT, TRUNCATED,",
             ")",
@@ -957,7 +964,15 @@ def generate_steps(task) -> str:
             '"""The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""',
         ]
     )
-    return header + "\n" + imports + "\n\n" + _fill(RESET_TEMPLATE, fields) + "".join(steps)
+    resets = [
+        _fill(RESET_TEMPLATE, {"{reset}": name, "{described}": described, "{extra}": extra, "{friction}": friction})
+        for name, described, extra, friction, _ in _RESETS.values()
+    ]
+    resets = [
+        _fill(reset.replace("{contact_start}", start), fields)
+        for reset, (*_, start) in zip(resets, _RESETS.values(), strict=True)
+    ]
+    return header + "\n" + imports + "\n" + "".join(resets) + "".join(steps)
 
 
 _STATE_ROWS = [str(j) for j in range(8)]

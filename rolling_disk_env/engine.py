@@ -140,17 +140,19 @@ class BundleType(types.StructRef):
 
 class Bundle(structref.StructRefProxy):
     """A batch's arrays as its kernels take them, built once (:func:`bundle`): ``batch``, the arrays of
-    :class:`BatchArrays` split into shares, and ``setup``, those of :class:`SetupArrays`, each a plain tuple.
+    :class:`BatchArrays` split into shares, ``setup``, those of :class:`SetupArrays`, and ``resets``, those of
+    :class:`ResetArrays` (the batch's own: it writes the disks to reset into their mask), each a plain tuple.
 
     A compiled function called from Python unboxes each array it is passed (reads its shape, strides and data
     pointer), about 0.1 us an array: the twelve arrays of a batch and its settings cost a single env's step more than
     its disk's arithmetic. A bundle (a numba structure, passed as one pointer) is unboxed at once: measured with a
     kernel that returns at once, 0.40 to 0.49 us a call with the bundle, the actions, the outputs and no resets,
-    against 1.00 to 1.29 us with the twelve arrays in tuples (Intel Xeon).
+    against 1.00 to 1.29 us with the twelve arrays in tuples (Intel Xeon). The resets travel in it too, so that a
+    step with resets and one without are one compiled function at the cost of one without.
     """
 
 
-structref.define_constructor(Bundle, BundleType, ["batch", "setup"])
+structref.define_constructor(Bundle, BundleType, ["batch", "setup", "resets"])
 structref.define_boxing(BundleType, Bundle)
 
 
@@ -159,19 +161,21 @@ class InterpretedBundle(NamedTuple):
 
     batch: tuple
     setup: tuple
+    resets: tuple
 
 
 @kernel
-def _compiled_bundle(batch, setup):
-    return Bundle(batch, setup)
+def _compiled_bundle(batch, setup, resets):
+    return Bundle(batch, setup, resets)
 
 
-def bundle(batch: tuple, setup: tuple) -> Bundle | InterpretedBundle:
-    """The :class:`Bundle` of a batch's arrays (split into shares) and settings, given as plain tuples: built by a
-    cached kernel (about 7 us a call; calling ``Bundle`` from Python compiles its constructor in every process)."""
+def bundle(batch: tuple, setup: tuple, resets: tuple) -> Bundle | InterpretedBundle:
+    """The :class:`Bundle` of a batch's arrays (split into shares), settings and resets, given as plain tuples: built
+    by a cached kernel (about 7 us a call; calling ``Bundle`` from Python compiles its constructor in every
+    process)."""
     if numba.config.DISABLE_JIT:
-        return InterpretedBundle(batch, setup)
-    return _compiled_bundle(batch, setup)
+        return InterpretedBundle(batch, setup, resets)
+    return _compiled_bundle(batch, setup, resets)
 
 
 class OutputArrays(NamedTuple):
