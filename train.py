@@ -126,6 +126,9 @@ def main(argv: list[str] | None = None) -> list:
     (``agents.evaluate.Result``: trained agent, passive disk, baseline)."""
     arguments = parser()
     args = arguments.parse_args(argv)
+    from agents import show_compiling
+
+    show_compiling()
 
     if args.device is not None and args.algo != "ppo":
         arguments.error(f"--device trains PPO (rsl_rl's), not {args.algo}")

@@ -26,6 +26,7 @@ import yaml
 from stable_baselines3 import PPO, SAC, TD3
 
 import rolling_disk_env as rd
+from agents import show_compiling
 from agents.baselines import BASELINES
 
 ALGORITHMS = {"ppo": PPO, "sac": SAC, "td3": TD3}
@@ -320,6 +321,7 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
 
 def main(argv: list[str] | None = None) -> Result:
+    show_compiling()
     description, _, epilog = __doc__.partition("examples:")
     parser = argparse.ArgumentParser(
         prog="python -m agents.evaluate",

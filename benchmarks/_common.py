@@ -37,6 +37,9 @@ def arguments(doc: str, **extra: dict) -> argparse.Namespace:
         parser.add_argument(f"--{name}", **kwargs)
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
+    from agents import show_compiling
+
+    show_compiling()  # the lines that say when the kernels compile
     return args
 
 

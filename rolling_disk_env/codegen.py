@@ -661,32 +661,37 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
+    (:func:`{reset}`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2.\"\"\"
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2.\"\"\"
     {unpack}
     settings = {settings}
-    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
+    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS]){track}
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
-{integrate}{outputs}{track}
+{integrate}{outputs}
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
-        reset_share(k, resets, batch, setup, out)
+    {reset}(k, resets, batch, setup, out)
 
 
 @kernel
-def step_{method}(actions, arrays, out, resets):
-    \"\"\"Steps a batch (see :func:`step_{method}_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
-    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
-    nothing is stepped), or -1.\"\"\"
-    batch, setup = arrays.batch, arrays.setup
+def step_{method}(actions, arrays, out, stepping):
+    \"\"\"Steps a batch (see :func:`step_{method}_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
+    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
+    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
+    resets' mask (:func:`{reset}`) and returns -1. One compiled function serves a configuration's resets and steps,
+    in the single env and the vector env.\"\"\"
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(batch[0].shape[1]):
+            {reset}(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -695,52 +700,38 @@ def step_{method}(actions, arrays, out, resets):
 
 
 @parallel_kernel
-def step_{method}_threads(actions, arrays, out, resets):
+def step_{method}_threads(actions, arrays, out, stepping):
     \"\"\":func:`step_{method}` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share).\"\"\"
-    batch, setup = arrays.batch, arrays.setup
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in prange(batch[0].shape[1]):
+            {reset}(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
             step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 """
-"""The fused step of one task with one integrator, for a batch of disks."""
+"""The fused step of one task with one integrator, for a batch of disks, and its callers, which also reset."""
 
 RESET_TEMPLATE = """
-@kernel
-def reset(resets, arrays, out):
-    \"\"\"Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`; ``arrays`` the batch's
-    :class:`~rolling_disk_env.engine.Bundle`), the shares one after the other on the calling thread.\"\"\"
-    batch, setup = arrays.batch, arrays.setup
-    for k in range(batch[0].shape[1]):
-        reset_share(np.int64(k), resets, batch, setup, out)
-
-
-@parallel_kernel
-def reset_threads(resets, arrays, out):
-    \"\"\":func:`reset` with the shares on numba's threads, a share per thread.\"\"\"
-    batch, setup = arrays.batch, arrays.setup
-    for k in prange(batch[0].shape[1]):
-        reset_share(np.int64(k), resets, batch, setup, out)
-
 
 @kernel
-def reset_share(k, resets, batch, setup, out):
-    \"\"\"Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants (those
-    randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all
-    from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
+def {reset}(k, resets, batch, setup, out):
+    \"\"\"Starts an episode in each disk of share k that the mask of ``resets`` holds{described}: its disk constants
+    (those randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its
+    ranges, all from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
     the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
-    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state. Under
-    the ``"sliding"`` and ``"coulomb"`` contacts, the centre's velocity (NaN: from the rolling constraint) and the
-    hybrid's report at zero torque. ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a
-    row or an entry per disk, disk i of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split
-    into shares as :func:`step_rk4_share` takes them.\"\"\"
+    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state.{extra}
+    ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i
+    of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split into shares as
+    :func:`step_rk4_share` takes them.\"\"\"
     mask, rngs, uniforms, given = resets
     {unpack}
-    options = {settings}
-    friction, hybrid, coulomb = config[FRICTION], config[CONTACT] != ROLLING, config[CONTACT] == COULOMB
+    options = {settings}{friction}
     first = k * lanes.shape[2]
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
@@ -769,7 +760,7 @@ def reset_share(k, resets, batch, setup, out):
         lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
         lanes[STEP_SIZE, k, i] = config[PERIOD]
         steps[k, i] = 0
-        lanes[TRACKING_SUM, k, i] = lanes[HALF_SUM, k, i] = 0.0
+        lanes[TRACKING_SUM, k, i] = lanes[TRACKING_WEIGHT, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
 {report}
@@ -781,17 +772,32 @@ def reset_share(k, resets, batch, setup, out):
             info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
         flags[TERMINATED, k, i] = False
         flags[TRUNCATED, k, i] = False
-        flags[SUCCESS, k, i] = {success_at_start}
-        if hybrid:
-            state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
-            lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
-            lanes[SLIDES, k, i] = contact[7]
-{contact_report}
-            info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
-            info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
-            info[CONTACT_ROWS + 4, k, i] = contact[7]
+        flags[SUCCESS, k, i] = {success_at_start}{contact_start}
 """
-"""Starting episodes of one task."""
+"""Starting episodes of one task: a function for the ``"rolling"`` contact (``reset_share``), another for the
+``"sliding"`` and ``"coulomb"`` contacts (``reset_contact_share``, :data:`CONTACT_START`), so that a rolling env
+compiles none of the hybrid's code."""
+CONTACT_START = """
+        state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
+        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
+        lanes[SLIDES, k, i] = contact[7]
+{contact_report}
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
+        info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
+        info[CONTACT_ROWS + 4, k, i] = contact[7]"""
+"""The end of ``reset_contact_share``: the centre's velocity (NaN: from the rolling constraint) and the hybrid's
+report at zero torque."""
+_RESETS = {
+    "rolling": ("reset_share", "", "", "", ""),
+    "contact": (
+        "reset_contact_share",
+        ' under the ``"sliding"`` or ``"coulomb"`` contact',
+        "\n    Then the centre's velocity (NaN: from the rolling constraint) and the hybrid's report at zero torque.",
+        "\n    friction, coulomb = config[FRICTION], config[CONTACT] == COULOMB",
+        CONTACT_START,
+    ),
+}
+"""Per contact family: the reset function's name, the words its docstring adds, and the code it adds."""
 
 _ADVANCE = {
     "dopri5": """    period, rtol, atol = config[PERIOD], config[RTOL], config[ATOL]
@@ -827,11 +833,17 @@ _ADVANCE = {
 }
 _SUCCESS = {
     "survive": ("code == RUNNING", "True"),
-    "track": ("code == RUNNING", "True"),
+    "track": ("(code == RUNNING) & within", "True"),
     "reach": ("code == REACHED", "False"),
 }
-"""Per success rule: the flag SUCCESS after a step (for TRACK, before :func:`rolling_disk_env.engine.track`), and
-at the start of an episode."""
+"""Per success rule: the flag SUCCESS after a step (for TRACK, ``within`` is :data:`_TRACKING`'s), and at the start of
+an episode."""
+_TRACKING = """
+        error = task.tracking_error(x, goal, settings)
+        total, weight = lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i]
+        total, weight, within = engine.track(total, weight, error, decay, bound)
+        lanes[TRACKING_SUM, k, i], lanes[TRACKING_WEIGHT, k, i] = total, weight"""
+"""The success rule TRACK in the last loop of a step (:func:`rolling_disk_env.engine.track`)."""
 
 
 def generate_steps(task) -> str:
@@ -855,7 +867,7 @@ def generate_steps(task) -> str:
         "{store_state}": _stores("lanes", _STATE_ROWS, _items("x", 8), 8, "k, i"),
         "{store_angles}": _store_angles(8),
         "{report}": _stores("info", [*_STATE_ROWS, *_REPORTED], reported, 8, "k, i") + "\n        codes[k, i] = code",
-        "{contact_report}": _stores("info", _REPORTED, _items("contact", 5), 12, "k, i"),
+        "{contact_report}": _stores("info", _REPORTED, _items("contact", 5), 8, "k, i"),
     }
     step_fields = {
         **fields,
@@ -889,9 +901,7 @@ def generate_steps(task) -> str:
                 f"        info[OBSERVATION + {j}, k, i] = min(max(observation[{j}], -bounds[{j}]), bounds[{j}])"
                 for j in range(observations)
             ),
-            "{tracking}": "\n        lanes[TRACKING_SUM, k, i] += task.tracking_error(x, goal, settings)"
-            if rule == "track"
-            else "",
+            "{tracking}": _TRACKING if rule == "track" else "",
             "{success}": success,
         },
     )
@@ -904,7 +914,7 @@ def generate_steps(task) -> str:
             "{hybrid_checks}": _fill(CHECKS_TEMPLATE, hybrid_checks),
         },
     )
-    track = "\n    engine.track(batch, flags, k, disks, config[SUCCESS_BOUND])" if rule == "track" else ""
+    track = "\n    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]" if rule == "track" else ""
     steps = []
     for method, integrate, velocity, described in [
         *(
@@ -920,7 +930,8 @@ def generate_steps(task) -> str:
     ]:
         template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
         template = template.replace("{velocity}", velocity).replace("{track}", track)
-        steps.append(_fill(template, {**step_fields, "{method}": method, "{described}": described}))
+        reset = _RESETS["contact" if method == "contact" else "rolling"][0]
+        steps.append(_fill(template, {**step_fields, "{method}": method, "{described}": described, "{reset}": reset}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
@@ -934,10 +945,11 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM,",
-            "    LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
-            "    REQUIRED_FRICTION, REWARD, ROLLING, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,",
-            "    SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,",
+            "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,",
+            "    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
+            "    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,",
+            "    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,",
+            "    TRACKING_WEIGHT, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
             f"import {module.__name__} as task",
@@ -952,7 +964,15 @@ def generate_steps(task) -> str:
             '"""The first row of ``engine.SLIDING_INFO`` in an info block ("sliding", "coulomb" contacts)."""',
         ]
     )
-    return header + "\n" + imports + "\n\n" + _fill(RESET_TEMPLATE, fields) + "".join(steps)
+    resets = [
+        _fill(RESET_TEMPLATE, {"{reset}": name, "{described}": described, "{extra}": extra, "{friction}": friction})
+        for name, described, extra, friction, _ in _RESETS.values()
+    ]
+    resets = [
+        _fill(reset.replace("{contact_start}", start), fields)
+        for reset, (*_, start) in zip(resets, _RESETS.values(), strict=True)
+    ]
+    return header + "\n" + imports + "\n" + "".join(resets) + "".join(steps)
 
 
 _STATE_ROWS = [str(j) for j in range(8)]
@@ -1038,17 +1058,20 @@ def {task}_step_{method}(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         {task}.step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            {task}.reset_share(np.int64(k), resets, batch, setup, out)
+            {task}.{reset}(np.int64(k), resets, batch, setup, out)
 '''
 CUDA_RESET = '''
 
-def {task}_reset(arguments):
-    """A new episode of task {task!r} in disk k, if the mask of the resets holds it (``{task}.reset_share``)."""
+def {task}_{name}(arguments):
+    """A new episode of task {task!r} in disk k, if the mask of the resets holds it (``{task}.{reset}``)."""
     resets, batch, setup, out = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1]:
-        {task}.reset_share(np.int64(k), resets, batch, setup, out)
+        {task}.{reset}(np.int64(k), resets, batch, setup, out)
 '''
+CUDA_RESETS = {"reset": "reset_share", "reset_contact": "reset_contact_share"}
+"""The reset kernels (``<task>_reset``: the ``"rolling"`` contact; ``<task>_reset_contact``: the ``"sliding"`` and
+``"coulomb"`` contacts) and the share functions they call."""
 
 
 def cuda_methods() -> tuple[str, ...]:
@@ -1060,13 +1083,16 @@ def cuda_methods() -> tuple[str, ...]:
 
 
 def generate_cuda(tasks) -> str:
-    """Source of ``_generated/cuda.py``: a step kernel a method (:func:`cuda_methods`) and a reset kernel, per task."""
+    """Source of ``_generated/cuda.py``: a step kernel a method (:func:`cuda_methods`) and a reset kernel a contact
+    family (:data:`CUDA_RESETS`), per task."""
     names = sorted(tasks)
     source = CUDA_HEADER + "from rolling_disk_env._generated import " + ", ".join(names) + "\n"
     for task in names:
-        source += CUDA_RESET.format(task=task)
+        for name, reset in CUDA_RESETS.items():
+            source += CUDA_RESET.format(task=task, name=name, reset=reset)
         for method in cuda_methods():
-            source += CUDA_STEP.format(task=task, method=method)
+            reset = CUDA_RESETS["reset_contact" if method == "contact" else "reset"]
+            source += CUDA_STEP.format(task=task, method=method, reset=reset)
     return source
 
 

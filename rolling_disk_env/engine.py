@@ -51,16 +51,17 @@ STATE = 0
 TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_SUM = range(8, 16)
 PREVIOUS = 16
 CENTRE_VELOCITY = 24
-HALF_SUM = 26
+TRACKING_WEIGHT = 26
 ANGLES = 27
 SLIDES = 31
 LANES = 32
 """Rows of a batch's *lanes* array (a column per disk, and idle padding columns), which the step reads and writes in
 place: the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step
-size (s), the task's tracking error summed over the episode (TRACKING_SUM), the state at the start of the control
+size (s), the task's tracking error summed over the episode with exponential weights (TRACKING_SUM, :func:`track`),
+the state at the start of the control
 period (8 rows from PREVIOUS: with substeps, and under the ``"sliding"`` and ``"coulomb"`` contacts), under those
 contacts the centre's horizontal velocity (dc1, dc2) (2 rows from CENTRE_VELOCITY), with which the 8 state rows make
-the 10-state, the tracking error summed over the first half of the episode (HALF_SUM), the state's
+the 10-state, the sum of those weights (TRACKING_WEIGHT), the state's
 ``kernels.angles`` (4 rows from ANGLES: the sines and cosines of theta and psi, which the end of a step and the reset
 compute from the state they store and the fixed-step integrators' first stage reads), and under the contacts 1.0
 where the disk slides (SLIDES; 0.0 where it rolls). A loop over the disks reads and writes rows, so it can
@@ -74,19 +75,16 @@ TERMS = 14
 TERMINATED, TRUNCATED, SUCCESS = range(3)
 """Rows of a flags block (booleans, one column per disk)."""
 
-PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_BOUND, CONTACT = range(8)
+PERIOD, SUBSTEPS, RTOL, ATOL, FRICTION, MAX_STEPS, SUCCESS_BOUND, CONTACT, SUCCESS_DECAY = range(9)
 """Entries of an env's ``config`` array: control period (s), fixed substeps, dopri5's tolerances, the friction
 coefficient (inf: ideal rolling; under the ``"sliding"`` and ``"coulomb"`` contacts, mu), episode steps before
 truncation (0: none, as in the single env, whose TimeLimit wrapper truncates), the bound of the task's success rule
 (the rule itself is written into the task's generated step), the contact model (:data:`ROLLING`, :data:`SLIDING` or
-:data:`COULOMB`)."""
+:data:`COULOMB`), and the success rule TRACK's weight of the past at each step, ``exp(-period / time constant)``
+(:func:`track`)."""
 ROLLING, SLIDING, COULOMB = (float(CONTACTS.index(name)) for name in ("rolling", "sliding", "coulomb"))
 """The contact models' codes, the entry CONTACT of a ``config`` array (their index in
 :data:`~rolling_disk_env.constants.CONTACTS`)."""
-SUM_BLOCK = 8
-"""Tracking-error sums in a block of a batch's ``error_sums``: a 64-byte cache line (:func:`track`)."""
-WRITING, READING, HISTORY = range(3)
-"""Blocks of ``error_sums``: the sums being written, the sums being read, and from HISTORY on the episode's sums."""
 SLIDING_INFO = ("dc1", "dc2", "v1", "v2", "sliding")
 """Rows of an info block after the observation under the ``"sliding"`` and ``"coulomb"`` contacts: the centre's
 horizontal velocity and the slip velocity (m/s), and 1 where the disk slides (0 where it rolls)."""
@@ -102,18 +100,11 @@ class BatchArrays(NamedTuple):
         lanes: (LANES, columns) float64, the rows described at :data:`LANES`.
         goals: (goal size, columns) float64, each episode's targets (the task's ``goal_names``).
         steps: (columns,) int64, steps since each episode started.
-        error_sums: (shares, blocks, share columns, SUM_BLOCK) float64, running sums of the task's tracking error
-            (success rule TRACK, :func:`track`): ``[k, b, i, j]`` for disk i of share k, entry j of block b, the
-            blocks WRITING and READING then the history (the sums of steps ``SUM_BLOCK n`` to ``SUM_BLOCK n + 7`` in
-            block ``HISTORY + n``); no blocks for the other rules. Unlike the other arrays, already split into shares.
-        listed: (shares, share columns) int64, where :func:`track` lists disks (no columns for the other rules).
     """
 
     lanes: np.ndarray
     goals: np.ndarray
     steps: np.ndarray
-    error_sums: np.ndarray
-    listed: np.ndarray
 
 
 class SetupArrays(NamedTuple):
@@ -149,17 +140,19 @@ class BundleType(types.StructRef):
 
 class Bundle(structref.StructRefProxy):
     """A batch's arrays as its kernels take them, built once (:func:`bundle`): ``batch``, the arrays of
-    :class:`BatchArrays` split into shares, and ``setup``, those of :class:`SetupArrays`, each a plain tuple.
+    :class:`BatchArrays` split into shares, ``setup``, those of :class:`SetupArrays`, and ``resets``, those of
+    :class:`ResetArrays` (the batch's own: it writes the disks to reset into their mask), each a plain tuple.
 
     A compiled function called from Python unboxes each array it is passed (reads its shape, strides and data
     pointer), about 0.1 us an array: the twelve arrays of a batch and its settings cost a single env's step more than
     its disk's arithmetic. A bundle (a numba structure, passed as one pointer) is unboxed at once: measured with a
     kernel that returns at once, 0.40 to 0.49 us a call with the bundle, the actions, the outputs and no resets,
-    against 1.00 to 1.29 us with the twelve arrays in tuples (Intel Xeon).
+    against 1.00 to 1.29 us with the twelve arrays in tuples (Intel Xeon). The resets travel in it too, so that a
+    step with resets and one without are one compiled function at the cost of one without.
     """
 
 
-structref.define_constructor(Bundle, BundleType, ["batch", "setup"])
+structref.define_constructor(Bundle, BundleType, ["batch", "setup", "resets"])
 structref.define_boxing(BundleType, Bundle)
 
 
@@ -168,19 +161,21 @@ class InterpretedBundle(NamedTuple):
 
     batch: tuple
     setup: tuple
+    resets: tuple
 
 
 @kernel
-def _compiled_bundle(batch, setup):
-    return Bundle(batch, setup)
+def _compiled_bundle(batch, setup, resets):
+    return Bundle(batch, setup, resets)
 
 
-def bundle(batch: tuple, setup: tuple) -> Bundle | InterpretedBundle:
-    """The :class:`Bundle` of a batch's arrays (split into shares) and settings, given as plain tuples: built by a
-    cached kernel (about 7 us a call; calling ``Bundle`` from Python compiles its constructor in every process)."""
+def bundle(batch: tuple, setup: tuple, resets: tuple) -> Bundle | InterpretedBundle:
+    """The :class:`Bundle` of a batch's arrays (split into shares), settings and resets, given as plain tuples: built
+    by a cached kernel (about 7 us a call; calling ``Bundle`` from Python compiles its constructor in every
+    process)."""
     if numba.config.DISABLE_JIT:
-        return InterpretedBundle(batch, setup)
-    return _compiled_bundle(batch, setup)
+        return InterpretedBundle(batch, setup, resets)
+    return _compiled_bundle(batch, setup, resets)
 
 
 class OutputArrays(NamedTuple):
@@ -474,44 +469,19 @@ def steady_circle(radius, speed, g, r):
 
 
 @inline_kernel
-def track(batch, flags, k, disks, bound):
-    """The success rule TRACK for the ``disks`` disks of share k of ``batch`` (:class:`BatchArrays`): keeps each
-    one's sum of the tracking error over the episode, S[step] (row TRACKING_SUM, which the step adds this step's error
-    to), in ``error_sums`` (:data:`SUM_BLOCK`), and keeps its flag SUCCESS, set where the disk is still running, where
-    the mean error over the last half of the episode, ``(S[step] - S[step // 2]) / (step - step // 2)``, is within
-    ``bound``.
+def track(total, weight, error, decay, bound):
+    """The success rule TRACK for one disk after a step whose tracking error is ``error``: ``(total, weight,
+    within)``, the disk's exponentially weighted sum of its errors and sum of weights (rows TRACKING_SUM and
+    TRACKING_WEIGHT, zero at the reset) updated, and whether their ratio, the bias-corrected exponentially weighted
+    mean of the error over the episode, is within ``bound``.
 
-    A disk's sums go into its block WRITING, each block of 8 copied to the history once full; every other step,
-    S[step // 2] moves on into row HALF_SUM, from block WRITING while it is still there (the first 16 steps), then
-    from block READING, which takes the next 8 sums from the history the step before they come due. The blocks
-    WRITING and READING of consecutive disks are consecutive in memory, and the first loop has no branch (the disks'
-    episodes are at different steps: a branch on the step is mispredicted half the time); the copies, of a disk once
-    in 8 steps, run in a loop of their own over the disks the first lists (in ``listed``). (With a row of sums per
-    disk, an entry a step, a step touched a line of each disk's row, 4 KB from the next disk's, under a branch taken
-    every other step: `circle`'s compiled step at N = 16384, one thread, AVX2 code, took 864 to 935 us against 812 to
-    825, interleaved fresh processes.) The sums of a disk that has just ended are kept too, never read."""
-    lanes, _, steps, error_sums, listed = batch
-    count = 0  # disks listed: those whose block WRITING is full
-    for i in range(disks):
-        step, half = steps[k, i], steps[k, i] // 2
-        total = error_sums[k, WRITING, i, step % SUM_BLOCK] = lanes[TRACKING_SUM, k, i]
-        # S[step // 2] from either block, or the row's: all three loaded, so the compiler chooses without a branch.
-        written, read = error_sums[k, WRITING, i, half % SUM_BLOCK], error_sums[k, READING, i, half % SUM_BLOCK]
-        kept = lanes[HALF_SUM, k, i]
-        moved = written if half < SUM_BLOCK else read
-        half_sum = lanes[HALF_SUM, k, i] = moved if step % 2 == 0 else kept
-        flags[SUCCESS, k, i] &= (total - half_sum) / max(1, step - half) <= bound
-        listed[k, count] = i
-        count += step % SUM_BLOCK == SUM_BLOCK - 1
-    for n in range(count):
-        i = listed[k, n]
-        block = HISTORY + steps[k, i] // SUM_BLOCK
-        for j in range(SUM_BLOCK):
-            error_sums[k, block, i, j] = error_sums[k, WRITING, i, j]
-        if steps[k, i] % (2 * SUM_BLOCK) == 2 * SUM_BLOCK - 1:  # the next step reads the first sum of a block
-            coming = HISTORY + (steps[k, i] + 1) // (2 * SUM_BLOCK)
-            for j in range(SUM_BLOCK):
-                error_sums[k, READING, i, j] = error_sums[k, coming, i, j]
+    ``decay`` is ``exp(-period / tau)`` (the entry SUCCESS_DECAY of ``config``): the error of a step ``n`` steps ago
+    weighs ``decay^n`` against this step's, so the mean forgets the past with the time constant tau (s). Two numbers a
+    disk, whatever the episode's length (which the single env does not know: Gymnasium's TimeLimit truncates it), and
+    no branch: the loop over the disks vectorizes."""
+    total = decay * total + error
+    weight = decay * weight + 1.0
+    return total, weight, total <= bound * weight
 
 
 # The "sliding" and "coulomb" contacts: a disk's 10-state x = (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi)

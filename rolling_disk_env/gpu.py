@@ -139,7 +139,8 @@ def to_host(array) -> np.ndarray:
 
 @functools.cache
 def kernel(task: str, name: str):
-    """The compiled kernel ``<task>_<name>`` of ``_generated/cuda.py`` (``step_<method>`` or ``reset``), cached on
+    """The compiled kernel ``<task>_<name>`` of ``_generated/cuda.py`` (``step_<method>``, ``reset`` or
+    ``reset_contact``), cached on
     disk (under the simulator, run in Python). numba-cuda compiles it at its first launch."""
     from rolling_disk_env._generated import cuda as kernels
 
@@ -286,12 +287,11 @@ class DeviceBatch(DiskBatch):
         require_device()
         super().__init__(config, num_envs, max_episode_steps)
         self.choice = None
-        # A step limit bounds the step counts within the history (sized for it): no copy of them to look at.
-        self._growing = self._growing and max_episode_steps is None
         self.device = torch_device()
         n, size = num_envs, self.observation_size
         method = config.integrator if config.contact == "rolling" else "contact"
-        self._kernels = (kernel(config.task.name, f"step_{method}"), kernel(config.task.name, "reset"), _jit(_check))
+        reset = "reset" if config.contact == "rolling" else "reset_contact"
+        self._kernels = (kernel(config.task.name, f"step_{method}"), kernel(config.task.name, reset), _jit(_check))
         self.mode = mode
         # What a step hands out fresh, in one block (one copy): the observations and rewards (float32), terminated and
         # truncated.
@@ -379,13 +379,12 @@ class DeviceBatch(DiskBatch):
         """Copies the batch's arrays from device memory into the host's (no copy under the simulator)."""
         if SIMULATED:
             return
-        lanes, goals, steps, error_sums, listed = (to_host(array) for array in self._device[0])
+        lanes, goals, steps = (to_host(array) for array in self._device[0])
         self.lanes[:], self.goals[:], self.steps[:] = (
             lanes.reshape(self.lanes.shape),
             goals.reshape(self.goals.shape),
             steps.reshape(-1),
         )
-        self.error_sums, self.listed = error_sums, listed
 
     def load(self, batch: DiskBatch) -> None:
         """Sets the disks' lanes, goals and step counts to those of the CPU ``batch`` of the same configuration and N,
@@ -443,8 +442,6 @@ class DeviceBatch(DiskBatch):
             truncated (2, N) bool; the first disk whose action is not finite, and the first disk that had ended under
             DISABLED (-1: none; where either is not, nothing was stepped and the returned tensors are meaningless).
         """
-        if self._growing:
-            self._grow_tracking()
         step, _, check = self._prepared()
         self.actions.copy_(actions)
         check()
@@ -471,13 +468,3 @@ class DeviceBatch(DiskBatch):
         np.copyto(host, words, where=mask[:, None])
         if not SIMULATED:
             self.rngs.copy_to_device(host, stream=_stream())
-
-    def _grow_tracking(self) -> None:
-        """:meth:`DiskBatch._grow_tracking <rolling_disk_env.envs.batch.DiskBatch._grow_tracking>`: when it looks at
-        the step counts, they are copied to the host, and the other arrays only where the history must grow. (With a
-        step limit the history holds every episode, and the batch never looks: :meth:`__init__`.)"""
-        if self._unchecked <= 1:
-            self.steps[:] = to_host(self._device[0][2]).reshape(-1)
-            if int(self.steps[: self.num_envs].max()) + 1 >= self.tracked_steps:
-                self._to_host()
-        super()._grow_tracking()

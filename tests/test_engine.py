@@ -184,8 +184,8 @@ def test_the_observations_are_copied_into_each_disks_row():
 
 
 def test_a_batch_steps_with_and_without_resets_in_either_order():
-    # A batch looks its compiled step up once for the types of the arguments (entry_point): called without resets
-    # after a step with them, and back, each call needs the function compiled for its own (the other would crash).
+    # A batch steps with resets (the vector env's) and without (the single env's) through one compiled function, its
+    # resets in the batch's bundle: a step without after a step with, and back, gives the twin's states.
     envs = [rd.RollingDiskVectorEnv(num_envs=4) for _ in range(2)]
     actions = np.full((4, 2), 0.5, dtype=np.float32)
     for env in envs:

@@ -317,13 +317,26 @@ def test_stable_baselines3_subproc_vec_env_runs():
         vec.close()
 
 
-def test_tracking_success_is_the_mean_error_over_the_last_half_at_every_step():
-    # is_success of circle at every step of an episode (the LQR, then pushed by noisy actions), against the mean radial
-    # error over the last half of the episode so far recomputed from the states: the start (error above 0.25 m)
-    # fails, the rest holds, and the flip comes where the recomputed means say.
+def weighted_means(errors, dt: float, time_constant: float) -> np.ndarray:
+    """The bias-corrected exponentially weighted mean of ``errors`` (a row a step, a column an env, or one row) after
+    each step, summed afresh with numpy's weights for every step (not the engine's running sums)."""
+    errors = np.asarray(errors, dtype=float)
+    decay = np.exp(-dt / time_constant)
+    means = []
+    for step in range(1, len(errors) + 1):
+        weights = decay ** np.arange(step - 1, -1, -1.0)
+        means.append(np.average(errors[:step], axis=0, weights=weights))
+    return np.array(means)
+
+
+def test_tracking_success_is_the_weighted_mean_error_at_every_step():
+    # is_success of circle at every step of an episode (the LQR, then pushed by noisy actions), against the
+    # exponentially weighted mean radial error (time constant 2.5 s) recomputed from the states: the start (error above
+    # 0.25 m) fails, the rest holds, and the flips come where the recomputed means say.
     from agents.baselines import CircleLQR
 
     env = gym.make(rd.TASK_IDS["circle"]).unwrapped
+    assert env.task.success_time_constant == 2.5
     observation, _ = env.reset(seed=1)
     centre, radius = np.array([env.goal["cx"], env.goal["cy"]]), env.goal["radius"]
     controller, rng = CircleLQR(task="circle"), np.random.default_rng(1)
@@ -334,45 +347,54 @@ def test_tracking_success_is_the_mean_error_over_the_last_half_at_every_step():
         assert not terminated
         errors.append(abs(np.hypot(*(info["state"][:2] - centre)) - radius))
         successes.append(info["is_success"])
-    means = [np.mean(errors[(step + 1) // 2 : step + 1]) for step in range(len(errors))]
+    means = weighted_means(errors, env.dt, 2.5)
     assert successes == [mean <= 0.25 for mean in means]
     assert not successes[0] and successes[-1]
 
 
-def test_a_batch_stepped_past_its_episode_limit_without_resets_grows_its_success_history():
-    # engine.track writes the sums where the step counts say: a batch stepped on without its resets (as
-    # benchmarks/bench_dynamics.py steps one) must grow its history past max_episode_steps, not write beyond it.
-    env = gym.make_vec(
-        rd.TASK_IDS["circle"], num_envs=3, vectorization_mode="vector_entry_point", max_episode_steps=10
-    ).unwrapped
-    env.reset(seed=0)
-    batch = env._batch
-    out, actions = batch.outputs(), np.zeros((3, 2), dtype=np.float32)
-    first = batch.tracked_steps
-    for _ in range(3 * first):
-        batch.step(actions, out)
-    assert batch.steps[:3].tolist() == [3 * first] * 3
-    assert batch.tracked_steps > 3 * first
-
-
-def test_tracking_success_holds_past_the_first_rows_of_sums_in_an_endless_episode():
-    # Without truncation the circle's tracking sums grow as the episode goes on (envs.batch: the rows double when a
-    # step could write past them, looked at only as often as a step could get there): is_success is still the mean
-    # radial error over the last half of the episode within 0.25 m, recomputed here from the states.
+def test_tracking_success_of_the_vector_env_is_the_weighted_mean_error_of_each_disk():
+    # The vector env's is_success, disk by disk, against the weighted means recomputed from its info rows (the same
+    # compiled rule as the single env's): the LQR's disks pushed by noise of different sizes, some failing.
     from agents.baselines import CircleLQR
+
+    envs = gym.make_vec(rd.TASK_IDS["circle"], num_envs=6, vectorization_mode="vector_entry_point").unwrapped
+    observations, infos = envs.reset(seed=3)
+    goals = envs._batch.goals
+    centre, radius = goals[1:3, :6].T, goals[0, :6]
+    controller, rng = CircleLQR(task="circle"), np.random.default_rng(3)
+    scale = np.linspace(0.0, 1.0, 6)[:, None]
+    errors, successes = [], []
+    for _ in range(300):
+        actions = controller.predict(observations)[0] + scale * rng.normal(0.0, 1.0, (6, 2))
+        observations, _, terminated, truncated, infos = envs.step(np.clip(actions, -1, 1).astype(np.float32))
+        assert not (terminated.any() or truncated.any())
+        errors.append(np.abs(np.hypot(*(infos["state"][:, :2] - centre).T) - radius))
+        successes.append(infos["is_success"])
+    means = weighted_means(errors, envs.config.dt, 2.5)
+    assert np.array_equal(np.array(successes), means <= 0.25)
+    table = np.array(successes)
+    assert (~table[0] & table[-1]).any()  # disks that start too far off their circles, then hold them
+
+
+def test_tracking_success_keeps_a_fixed_memory_in_an_endless_episode():
+    # Without truncation (the single env does not know its limit), the success rule keeps two numbers a disk, lanes
+    # rows: nothing the batch carries grows as the episode goes on, and is_success is still the weighted mean.
+    from agents.baselines import CircleLQR
+    from rolling_disk_env import engine
 
     env = gym.make(rd.TASK_IDS["circle"], max_episode_steps=None).unwrapped
     observation, _ = env.reset(seed=2)
-    first_rows = env._batch.tracked_steps
+    carried = [(array.shape, array.nbytes) for array in env._batch.shares()]
     centre, radius = np.array([env.goal["cx"], env.goal["cy"]]), env.goal["radius"]
     controller = CircleLQR(task="circle")
     errors, successes = [], []
-    for _ in range(2 * first_rows + 10):
+    for _ in range(1500):
         observation, _, terminated, _, info = env.step(controller.predict(observation)[0])
         assert not terminated
         errors.append(abs(np.hypot(*(info["state"][:2] - centre)) - radius))
         successes.append(info["is_success"])
-    assert env._batch.tracked_steps >= 2 * first_rows
-    means = [np.mean(errors[(step + 1) // 2 : step + 1]) for step in range(len(errors))]
-    assert successes[first_rows:] == [mean <= 0.25 for mean in means[first_rows:]]
-    assert any(successes[first_rows:])  # the controller holds the circle
+    assert [(array.shape, array.nbytes) for array in env._batch.shares()] == carried
+    assert env._batch.lanes.shape[0] == engine.LANES and len(engine.BatchArrays._fields) == 3
+    means = weighted_means(errors, env.dt, 2.5)
+    assert successes == [mean <= 0.25 for mean in means]
+    assert all(successes[500:])  # the controller holds the circle

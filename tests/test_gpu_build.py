@@ -41,7 +41,7 @@ def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
     arrays = batch.shares()
     resets = (np.zeros(num_envs, bool), np.zeros((num_envs, 4), np.uint64), batch.uniforms, batch.no_state)
     out = batch.outputs().shares
-    if name == "reset":
+    if name.startswith("reset"):
         return resets, arrays, tuple(batch.setup), out
     actions = np.zeros((num_envs, config.action_space.shape[0]), np.float32)
     control = rd.engine.DeviceControl(
@@ -57,13 +57,15 @@ def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
 
 
 KERNELS = [
-    (task, name) for task in sorted(rd.TASK_IDS) for name in ("reset", *(f"step_{m}" for m in codegen.cuda_methods()))
+    (task, name)
+    for task in sorted(rd.TASK_IDS)
+    for name in (*codegen.CUDA_RESETS, *(f"step_{m}" for m in codegen.cuda_methods()))
 ]
 
 
 @pytest.mark.parametrize(("task", "name"), KERNELS, ids=[f"{task}_{name}" for task, name in KERNELS])
 def test_every_kernel_builds_for_sm_90(task, name, monkeypatch):
-    contact = {"contact": "coulomb", "friction_coefficient": 0.2} if name == "step_contact" else {}
+    contact = {"contact": "coulomb", "friction_coefficient": 0.2} if name.endswith("contact") else {}
     config = EnvConfig.from_kwargs(task=task, **contact)
     arguments = _arguments(config, name)
     # numba-cuda asks the current device for its compute capability where a kernel calls a CPU-compiled function;

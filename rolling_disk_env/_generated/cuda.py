@@ -29,6 +29,14 @@ def circle_reset(arguments):
         circle.reset_share(np.int64(k), resets, batch, setup, out)
 
 
+def circle_reset_contact(arguments):
+    """A new episode of task 'circle' in disk k, if the mask of the resets holds it (``circle.reset_contact_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
 def circle_step_euler(arguments):
     """One control period of disk k of task 'circle' (``circle.step_euler_share``), its autoreset decided on the
     device."""
@@ -81,7 +89,7 @@ def circle_step_contact(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         circle.step_contact_share(np.int64(k), actions, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            circle.reset_share(np.int64(k), resets, batch, setup, out)
+            circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
 def goto_reset(arguments):
@@ -90,6 +98,14 @@ def goto_reset(arguments):
     k = cuda.grid(1)
     if k < batch[0].shape[1]:
         goto.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def goto_reset_contact(arguments):
+    """A new episode of task 'goto' in disk k, if the mask of the resets holds it (``goto.reset_contact_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
 def goto_step_euler(arguments):
@@ -144,7 +160,7 @@ def goto_step_contact(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         goto.step_contact_share(np.int64(k), actions, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            goto.reset_share(np.int64(k), resets, batch, setup, out)
+            goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
 def upright_reset(arguments):
@@ -153,6 +169,14 @@ def upright_reset(arguments):
     k = cuda.grid(1)
     if k < batch[0].shape[1]:
         upright.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def upright_reset_contact(arguments):
+    """A new episode of task 'upright' in disk k, if the mask of the resets holds it (``upright.reset_contact_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
 def upright_step_euler(arguments):
@@ -207,4 +231,4 @@ def upright_step_contact(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         upright.step_contact_share(np.int64(k), actions, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            upright.reset_share(np.int64(k), resets, batch, setup, out)
+            upright.reset_contact_share(np.int64(k), resets, batch, setup, out)

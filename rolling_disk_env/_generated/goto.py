@@ -18,10 +18,11 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, HALF_SUM,
-    LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
-    REQUIRED_FRICTION, REWARD, ROLLING, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,
-    SUCCESS, SUCCESS_BOUND, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM, TRUNCATED,
+    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,
+    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
+    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,
+    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,
+    TRACKING_WEIGHT, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, parallel_kernel, prange
 import rolling_disk_env.tasks.goto as task
@@ -37,40 +38,21 @@ CONTACT_ROWS = OBSERVATION + OBSERVATION_SIZE
 
 
 @kernel
-def reset(resets, arrays, out):
-    """Starts an episode in each disk of the mask of ``resets`` (see :func:`reset_share`; ``arrays`` the batch's
-    :class:`~rolling_disk_env.engine.Bundle`), the shares one after the other on the calling thread."""
-    batch, setup = arrays.batch, arrays.setup
-    for k in range(batch[0].shape[1]):
-        reset_share(np.int64(k), resets, batch, setup, out)
-
-
-@parallel_kernel
-def reset_threads(resets, arrays, out):
-    """:func:`reset` with the shares on numba's threads, a share per thread."""
-    batch, setup = arrays.batch, arrays.setup
-    for k in prange(batch[0].shape[1]):
-        reset_share(np.int64(k), resets, batch, setup, out)
-
-
-@kernel
 def reset_share(k, resets, batch, setup, out):
-    """Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants (those
-    randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its ranges, all
-    from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
+    """Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants
+    (those randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its
+    ranges, all from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
     the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
-    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state. Under
-    the ``"sliding"`` and ``"coulomb"`` contacts, the centre's velocity (NaN: from the rolling constraint) and the
-    hybrid's report at zero torque. ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a
-    row or an entry per disk, disk i of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split
-    into shares as :func:`step_rk4_share` takes them."""
+    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state.
+    ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i
+    of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split into shares as
+    :func:`step_rk4_share` takes them."""
     mask, rngs, uniforms, given = resets
-    lanes, goals, steps, error_sums, listed = batch
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     options = (settings[0], settings[1], settings[2])
-    friction, hybrid, coulomb = config[FRICTION], config[CONTACT] != ROLLING, config[CONTACT] == COULOMB
     first = k * lanes.shape[2]
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
@@ -102,7 +84,7 @@ def reset_share(k, resets, batch, setup, out):
         lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
         lanes[STEP_SIZE, k, i] = config[PERIOD]
         steps[k, i] = 0
-        lanes[TRACKING_SUM, k, i] = lanes[HALF_SUM, k, i] = 0.0
+        lanes[TRACKING_SUM, k, i] = lanes[TRACKING_WEIGHT, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
         info[0, k, i], info[1, k, i] = x[0], x[1]
@@ -122,16 +104,86 @@ def reset_share(k, resets, batch, setup, out):
         flags[TERMINATED, k, i] = False
         flags[TRUNCATED, k, i] = False
         flags[SUCCESS, k, i] = False
-        if hybrid:
-            state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
-            lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
-            lanes[SLIDES, k, i] = contact[7]
-            info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
-            info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
-            info[REQUIRED_FRICTION, k, i] = contact[4]
-            info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
-            info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
-            info[CONTACT_ROWS + 4, k, i] = contact[7]
+
+
+@kernel
+def reset_contact_share(k, resets, batch, setup, out):
+    """Starts an episode in each disk of share k that the mask of ``resets`` holds under the ``"sliding"`` or ``"coulomb"`` contact: its disk constants
+    (those randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its
+    ranges, all from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
+    ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
+    the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
+    reads); a row of ``given`` (the 8-state, then the centre's velocity; NaN: none) replaces the initial state.
+    Then the centre's velocity (NaN: from the rolling constraint) and the hybrid's report at zero torque.
+    ``resets`` holds the arrays of :class:`~rolling_disk_env.engine.ResetArrays` (a row or an entry per disk, disk i
+    of share k at ``k * columns + i``); ``batch``, ``setup`` and ``out`` are split into shares as
+    :func:`step_rk4_share` takes them."""
+    mask, rngs, uniforms, given = resets
+    lanes, goals, steps = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags, codes = out
+    options = (settings[0], settings[1], settings[2])
+    friction, coulomb = config[FRICTION], config[CONTACT] == COULOMB
+    first = k * lanes.shape[2]
+    for i in range(min(lanes.shape[2], mask.shape[0] - first)):
+        d = first + i
+        if not mask[d]:
+            continue
+        if rngs.shape[0]:
+            for j in range(uniforms.shape[1]):
+                uniforms[d, j] = pcg64.random(rngs[d])
+        drawn = 0
+        for j in range(3):
+            low, high = disk_ranges[j, 0], disk_ranges[j, 1]
+            lanes[MASS + j, k, i] = low
+            if disk_ranges[j, 2]:
+                lanes[MASS + j, k, i] = low + (high - low) * uniforms[d, drawn]
+                drawn += 1
+        for j in range(ranges.shape[0]):
+            uniforms[d, drawn + j] = ranges[j, 0] + (ranges[j, 1] - ranges[j, 0]) * uniforms[d, drawn + j]
+        disk = (lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i])
+        goal, x = task.start(uniforms[d, drawn:], disk, options)
+        if not math.isnan(given[d, 0]):
+            x = (given[d, 0], given[d, 1], given[d, 2], given[d, 3], given[d, 4], given[d, 5], given[d, 6], given[d, 7])
+        for j in range(len(goal)):
+            goals[j, k, i] = goal[j]
+        lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
+        lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
+        trig = kernels.angles(x)
+        lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i] = trig[0], trig[1]
+        lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
+        lanes[TAU_SPIN, k, i] = lanes[TAU_STEER, k, i] = 0.0
+        lanes[STEP_SIZE, k, i] = config[PERIOD]
+        steps[k, i] = 0
+        lanes[TRACKING_SUM, k, i] = lanes[TRACKING_WEIGHT, k, i] = 0.0
+        contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
+        code = RUNNING
+        info[0, k, i], info[1, k, i] = x[0], x[1]
+        info[2, k, i], info[3, k, i] = x[2], x[3]
+        info[4, k, i], info[5, k, i] = x[4], x[5]
+        info[6, k, i], info[7, k, i] = x[6], x[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i] = contact[4]
+        codes[k, i] = code
+        info[REWARD, k, i] = 0.0
+        for j in range(TERMS, OBSERVATION):
+            info[j, k, i] = 0.0
+        observation = task.observe(x, trig, goal, options)
+        for j in range(len(observation)):
+            info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
+        flags[TERMINATED, k, i] = False
+        flags[TRUNCATED, k, i] = False
+        flags[SUCCESS, k, i] = False
+        state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
+        lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
+        lanes[SLIDES, k, i] = contact[7]
+        info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
+        info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
+        info[REQUIRED_FRICTION, k, i] = contact[4]
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
+        info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
+        info[CONTACT_ROWS + 4, k, i] = contact[7]
 
 
 @kernel
@@ -139,16 +191,16 @@ def step_euler_share(k, actions, batch, setup, out, resets):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -246,16 +298,21 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
-        reset_share(k, resets, batch, setup, out)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_euler(actions, arrays, out, resets):
-    """Steps a batch (see :func:`step_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
-    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
-    nothing is stepped), or -1."""
-    batch, setup = arrays.batch, arrays.setup
+def step_euler(actions, arrays, out, stepping):
+    """Steps a batch (see :func:`step_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
+    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
+    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
+    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
+    in the single env and the vector env."""
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -264,10 +321,14 @@ def step_euler(actions, arrays, out, resets):
 
 
 @parallel_kernel
-def step_euler_threads(actions, arrays, out, resets):
+def step_euler_threads(actions, arrays, out, stepping):
     """:func:`step_euler` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup = arrays.batch, arrays.setup
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in prange(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -280,16 +341,16 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -387,16 +448,21 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
-        reset_share(k, resets, batch, setup, out)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_symplectic_euler(actions, arrays, out, resets):
-    """Steps a batch (see :func:`step_symplectic_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
-    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
-    nothing is stepped), or -1."""
-    batch, setup = arrays.batch, arrays.setup
+def step_symplectic_euler(actions, arrays, out, stepping):
+    """Steps a batch (see :func:`step_symplectic_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
+    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
+    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
+    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
+    in the single env and the vector env."""
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -405,10 +471,14 @@ def step_symplectic_euler(actions, arrays, out, resets):
 
 
 @parallel_kernel
-def step_symplectic_euler_threads(actions, arrays, out, resets):
+def step_symplectic_euler_threads(actions, arrays, out, stepping):
     """:func:`step_symplectic_euler` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup = arrays.batch, arrays.setup
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in prange(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -421,16 +491,16 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -528,16 +598,21 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
-        reset_share(k, resets, batch, setup, out)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_rk4(actions, arrays, out, resets):
-    """Steps a batch (see :func:`step_rk4_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
-    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
-    nothing is stepped), or -1."""
-    batch, setup = arrays.batch, arrays.setup
+def step_rk4(actions, arrays, out, stepping):
+    """Steps a batch (see :func:`step_rk4_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
+    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
+    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
+    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
+    in the single env and the vector env."""
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -546,10 +621,14 @@ def step_rk4(actions, arrays, out, resets):
 
 
 @parallel_kernel
-def step_rk4_threads(actions, arrays, out, resets):
+def step_rk4_threads(actions, arrays, out, stepping):
     """:func:`step_rk4` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup = arrays.batch, arrays.setup
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in prange(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -562,16 +641,16 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
+    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -648,16 +727,21 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
-        reset_share(k, resets, batch, setup, out)
+    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_dopri5(actions, arrays, out, resets):
-    """Steps a batch (see :func:`step_dopri5_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
-    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
-    nothing is stepped), or -1."""
-    batch, setup = arrays.batch, arrays.setup
+def step_dopri5(actions, arrays, out, stepping):
+    """Steps a batch (see :func:`step_dopri5_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
+    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
+    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
+    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
+    in the single env and the vector env."""
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -666,10 +750,14 @@ def step_dopri5(actions, arrays, out, resets):
 
 
 @parallel_kernel
-def step_dopri5_threads(actions, arrays, out, resets):
+def step_dopri5_threads(actions, arrays, out, stepping):
     """:func:`step_dopri5` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup = arrays.batch, arrays.setup
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in prange(batch[0].shape[1]):
+            reset_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):
@@ -682,16 +770,16 @@ def step_contact_share(k, actions, batch, setup, out, resets):
     """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
     last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored), unless ``resets`` is None.
+    (:func:`reset_contact_share`, while the share's rows are in cache: its action is ignored).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
     last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``, ``[k, block, i, j]`` for ``error_sums``). The loop runs over a whole share, padding included
-    (``rolling_disk_env.envs.batch``): numba addresses a C-contiguous array through its shape, so the compiler sees
-    that the rows the loop reads and writes do not overlap. The settings it needs are read before the loop: a read
-    of an array under a condition inside the loop (a masked load) keeps it from vectorizing on AVX2."""
-    lanes, goals, steps, error_sums, listed = batch
+    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
+    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
+    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
+    (a masked load) keeps it from vectorizing on AVX2."""
+    lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2])
@@ -820,16 +908,21 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == REACHED
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    if resets is not None:  # None (a batch that never resets in its step): compiled without the reset
-        reset_share(k, resets, batch, setup, out)
+    reset_contact_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_contact(actions, arrays, out, resets):
-    """Steps a batch (see :func:`step_contact_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`),
-    its shares one after the other on the calling thread; returns the first disk with a non-finite action (then
-    nothing is stepped), or -1."""
-    batch, setup = arrays.batch, arrays.setup
+def step_contact(actions, arrays, out, stepping):
+    """Steps a batch (see :func:`step_contact_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
+    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
+    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
+    resets' mask (:func:`reset_contact_share`) and returns -1. One compiled function serves a configuration's resets and steps,
+    in the single env and the vector env."""
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(batch[0].shape[1]):
+            reset_contact_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in range(batch[0].shape[1]):
@@ -838,10 +931,14 @@ def step_contact(actions, arrays, out, resets):
 
 
 @parallel_kernel
-def step_contact_threads(actions, arrays, out, resets):
+def step_contact_threads(actions, arrays, out, stepping):
     """:func:`step_contact` with the shares on numba's threads, a share per thread (the share index is cast to
     the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup = arrays.batch, arrays.setup
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in prange(batch[0].shape[1]):
+            reset_contact_share(np.int64(k), resets, batch, setup, out)
+        return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
         for k in prange(batch[0].shape[1]):

@@ -20,23 +20,32 @@ a result. Resets run the way the steps do.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
+import hashlib
 import importlib
+import logging
 import math
 import multiprocessing
 import os
 import platform
 import time
+from pathlib import Path
 from types import ModuleType
 
 import numba
 import numpy as np
 
+try:
+    import fcntl
+except ImportError:  # Windows
+    fcntl = None
+
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import ROLLING_INDICES
 from rolling_disk_env.envs.config import EnvConfig
-from rolling_disk_env.tasks.base import TRACK, Task
+from rolling_disk_env.tasks.base import Task
 
 GIVEN_SIZE = 10
 """Columns of the initial states a reset takes (``engine.ResetArrays.given``): the 8-state, then the centre's
@@ -174,7 +183,33 @@ class ThreadChoice:
         self._spent = 0.0
 
 
-def entry_point(kernel, args: tuple):
+logger = logging.getLogger(__name__)
+"""Where a batch says that it compiles its kernels (INFO): a line before, naming what and for which CPU, and one
+after, with the seconds it took. Nothing where the kernels come from numba's cache."""
+
+
+def cpu_name() -> str:
+    """The CPU numba compiles for, and its widest vector extension: e.g. ``znver4, AVX-512``."""
+    import llvmlite.binding
+
+    name = numba.config.CPU_NAME or llvmlite.binding.get_host_cpu_name()
+    features = numba.config.CPU_FEATURES or llvmlite.binding.get_host_cpu_features().flatten()
+    flags = {feature.lstrip("+") for feature in features.split(",") if not feature.startswith("-")}
+    return f"{name}, {'AVX-512' if 'avx512f' in flags else 'AVX2' if 'avx2' in flags else 'SSE2'}"
+
+
+def in_disk_cache(kernel, signature: tuple) -> bool:
+    """Whether numba's on-disk cache holds ``kernel`` compiled for the argument types ``signature`` (what
+    ``Dispatcher.compile`` loads instead of compiling; False where it cannot tell)."""
+    cache = getattr(kernel, "_cache", None)
+    try:
+        key = cache._index_key(signature, kernel.targetctx.codegen())
+        return key in cache._cache_file._load_index()
+    except (AttributeError, OSError):  # no cache (numba's NullCache), or an index that cannot be read
+        return False
+
+
+def entry_point(kernel, args: tuple, name: str = "a kernel"):
     """The compiled function of ``kernel`` for the types of ``args``, to call with arguments of those types.
 
     A call through numba's dispatcher first types every argument to choose the compiled function: the arrays of a
@@ -182,11 +217,51 @@ def entry_point(kernel, args: tuple):
     dispatcher 3.3 us, the compiled function 1.9 us; the batch's arrays now travel in a
     :class:`~rolling_disk_env.engine.Bundle`). A batch calls its step with arrays of the same types at every step, so
     it looks the function up once: ``Dispatcher.compile`` returns the one compiled or cached for the types (compiling
-    it where there is none). Where numba's JIT is disabled (``NUMBA_DISABLE_JIT=1``), the kernel itself.
+    it where there is none, which :data:`logger` says, naming it ``name``). Where numba's JIT is disabled
+    (``NUMBA_DISABLE_JIT=1``), the kernel itself.
     """
     if not hasattr(kernel, "compile"):
         return kernel
-    return kernel.compile(tuple(kernel.typeof_pyval(arg) for arg in args))
+    signature = tuple(kernel.typeof_pyval(arg) for arg in args)
+    if signature in kernel.overloads or in_disk_cache(kernel, signature):
+        return kernel.compile(signature)
+    where = getattr(kernel._cache, "_cache_path", None)
+    with _compiling(where, f"{kernel.__qualname__}{signature}"):
+        if in_disk_cache(kernel, signature):  # another process compiled it while this one waited
+            return kernel.compile(signature)
+        logger.info(
+            "compiling %s for this CPU (%s), once: it takes seconds to a minute; %s",
+            name,
+            cpu_name(),
+            f"cached in {where}" if where else "not cached (no writable cache directory)",
+        )
+        start = time.perf_counter()
+        entry = kernel.compile(signature)
+        logger.info("compiled %s in %.1f s", name, time.perf_counter() - start)
+    return entry
+
+
+@contextlib.contextmanager
+def _compiling(directory: str | None, key: str):
+    """Holds a lock file of ``key`` in the cache ``directory`` while a kernel compiles, so that processes starting
+    the same configuration at once (pytest-xdist's workers, ``SubprocVecEnv``'s) compile it once: the others wait,
+    then load it from the cache. Where there is no cache or no ``fcntl`` (Windows), no lock."""
+    if directory is None or fcntl is None:
+        yield
+        return
+    path = Path(directory) / f"compiling-{hashlib.sha256(key.encode()).hexdigest()[:16]}.lock"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(path, "a")
+    except OSError:
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def thread_count(num_envs: int) -> int:
@@ -220,16 +295,6 @@ def keep_freed_memory() -> bool:
         return bool(libc.mallopt(_M_MMAP_THRESHOLD, 64 * 2**20) and libc.mallopt(_M_TRIM_THRESHOLD, 128 * 2**20))
     except (OSError, AttributeError):
         return False
-
-
-def _touched(array: np.ndarray) -> np.ndarray:
-    """``array`` filled with zeros, written now. The system maps an allocation's pages at their first write (and
-    ``np.zeros`` leaves them unwritten): a step that wrote the first sums of a block of the success rule's history
-    (``engine.track``) waited for its pages. Measured on `circle`'s first 337 steps at N = 4096, one thread, AVX2
-    code, in a process that had just compiled the step: 65 to 68 ns a disk-step in 4 runs of 5, against 42 to 45 in
-    5 of 5 with the history written at once."""
-    array.fill(0.0)
-    return array
 
 
 def columns(num_envs: int) -> int:
@@ -326,16 +391,19 @@ class DiskBatch:
         self.num_envs = num_envs
         self.threads, self.share = self._layout(num_envs)
         width = self.threads * self.share
-        # The serial and the threaded kernels.
-        method = config.integrator if config.contact == "rolling" else "contact"
-        self._steps = (getattr(steps, f"step_{method}"), getattr(steps, f"step_{method}_threads"))
+        # The serial and the threaded kernels: each steps and resets (one compiled function for the single env's and
+        # the vector env's steps and resets), for one integrator and one contact family.
+        self.method = config.integrator if config.contact == "rolling" else "contact"
+        """The step's method: the integrator under the ``"rolling"`` contact, else ``"contact"``."""
+        self._steps = (getattr(steps, f"step_{self.method}"), getattr(steps, f"step_{self.method}_threads"))
+        self.description = f"task {task.name!r}'s step and reset ({self.method}, {config.contact} contact)"
+        """What the kernels compute, as the compile log names them (:func:`entry_point`)."""
         self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
         """The first row of ``engine.SLIDING_INFO`` in the info block (None under the ``"rolling"`` contact)."""
         first = self.contact_rows
         self.state_rows = slice(0, 8) if first is None else np.array([0, 1, 2, 3, 4, first, first + 1, 5, 6, 7])
         """The rows of the disks' state in the info block: the 8-state, or the 10-state under the ``"sliding"`` and
         ``"coulomb"`` contacts (the centre's velocity among the rows of ``engine.SLIDING_INFO``)."""
-        self._resets = (steps.reset, steps.reset_threads)
         self.choice = ThreadChoice() if self.threads > 1 else None
         """How a batch of several shares steps them (None: one share, on the calling thread)."""
         if num_envs >= HEAP_FROM:
@@ -349,18 +417,13 @@ class DiskBatch:
         self.lanes[[engine.ANGLES + 1, engine.ANGLES + 3]] = 1.0  # kernels.angles of the zero state: the padding's
         self.goals = np.zeros((len(task.goal_names), width))
         self.steps = np.zeros(width, dtype=np.int64)
-        # Tracking errors summed over each episode, for the success rule TRACK (engine.track). An episode truncated
-        # at max_episode_steps may be stepped once more before its reset (next-step autoreset): sums up to step
-        # max_episode_steps + 1. The history grows where episodes get longer: without truncation, or a batch stepped
-        # without its resets (the step writes where the step counts say, and must stay within the array).
-        tracked = task.success == TRACK
-        self._growing = tracked
-        self._unchecked = 0  # steps before the history must be looked at again (_grow_tracking)
-        history = -(-((max_episode_steps or 1024) + 2) // engine.SUM_BLOCK) if tracked else -engine.HISTORY
-        self.error_sums = _touched(np.empty((self.threads, engine.HISTORY + history, self.share, engine.SUM_BLOCK)))
-        self.listed = np.zeros((self.threads, self.share if tracked else 0), dtype=np.int64)
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, GIVEN_SIZE), np.nan)
+        """The initial states a reset takes (``engine.ResetArrays.given``): rows of NaN, but during a reset to given
+        states."""
+        self.mask = np.zeros(num_envs, dtype=bool)
+        """The disks the next compiled call resets (``engine.ResetArrays.mask``): none between calls."""
+        self._no_actions = np.zeros((0, config.action_space.shape[0]), dtype=np.float32)
         self.observation_rows = slice(engine.TERMS + self.terms, engine.TERMS + self.terms + self.observation_size)
         """The rows of the observation (clipped, float64) in an info block."""
         self.rows = self.observation_rows.stop + (0 if self.contact_rows is None else 5)
@@ -378,6 +441,7 @@ class DiskBatch:
         )
         """The settings, as the kernels take them (:class:`~rolling_disk_env.engine.SetupArrays`, a plain tuple)."""
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
+        self._rngs = self._no_rngs  # the PCG64 states in the bundle's resets
         self._bundle()
 
     def _layout(self, num_envs: int) -> tuple[int, int]:
@@ -404,29 +468,33 @@ class DiskBatch:
 
     def __getstate__(self) -> dict:
         """Pickles the arrays, not the views of them the step takes (which would pickle as copies)."""
-        return {key: value for key, value in self.__dict__.items() if key not in ("_arrays", "_entries")}
+        return {key: value for key, value in self.__dict__.items() if key not in ("_arrays", "_entries", "_rngs")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
+        self._rngs = self._no_rngs
         self._bundle()
 
     def _bundle(self) -> None:
-        """The batch's :meth:`shares`, with the settings, in the :class:`~rolling_disk_env.engine.Bundle` the kernels
-        take."""
-        self._entries = [None] * 4  # the compiled steps, serial or threaded, with resets or without (entry_point)
-        self._arrays = engine.bundle(self.shares(), self.setup)
+        """The batch's :meth:`shares`, with the settings and the resets, in the
+        :class:`~rolling_disk_env.engine.Bundle` the kernels take."""
+        self._entries = [None] * 2  # the compiled steps, serial or threaded (entry_point)
+        resets = (self.mask, self._rngs, self.uniforms, self.no_state)
+        self._arrays = engine.bundle(self.shares(), self.setup, resets)
+
+    def _draw_from(self, rngs: np.ndarray | None) -> None:
+        """Puts ``rngs`` (or none: the uniforms as they are) into the bundle's resets, if they are not there (a vector
+        env passes the same array every time: the bundle is built again once)."""
+        rngs = self._no_rngs if rngs is None else rngs
+        if rngs is not self._rngs:
+            self._rngs = rngs
+            self._bundle()
 
     def shares(self) -> tuple:
-        """The lanes, goals, step counts, error sums and list (:class:`~rolling_disk_env.engine.BatchArrays`, a plain
-        tuple), split into the shares (views): ``[row, k, i]`` for disk i of share k."""
+        """The lanes, goals and step counts (:class:`~rolling_disk_env.engine.BatchArrays`, a plain tuple), split into
+        the shares (views): ``[row, k, i]`` for disk i of share k."""
         split = (self.threads, self.share)
-        return (
-            self.lanes.reshape(-1, *split),
-            self.goals.reshape(-1, *split),
-            self.steps.reshape(split),
-            self.error_sums,
-            self.listed,
-        )
+        return self.lanes.reshape(-1, *split), self.goals.reshape(-1, *split), self.steps.reshape(split)
 
     def reset(
         self, mask: np.ndarray, out: Outputs, rngs: np.ndarray | None = None, states: np.ndarray | None = None
@@ -441,13 +509,16 @@ class DiskBatch:
             states: (N, 8) initial states that replace the drawn ones (rows of NaN: none), or None; (N, 10) under
                 the ``"sliding"`` and ``"coulomb"`` contacts (centre velocities of NaN: from the rolling constraint).
         """
-        rngs = self._no_rngs if rngs is None else rngs
-        reset = self._resets[self.choice is not None and self.choice.threaded]
-        reset(
-            (mask, rngs, self.uniforms, self.no_state if states is None else given_states(states)),
-            self._arrays,
-            out.shares,
-        )
+        self._draw_from(rngs)
+        np.copyto(self.mask, mask)
+        if states is not None:
+            self.no_state[:] = given_states(states)
+        try:
+            self._call(False, self._no_actions, out)
+        finally:
+            self.mask.fill(False)
+            if states is not None:
+                self.no_state.fill(np.nan)
 
     def step(
         self, actions: np.ndarray, out: Outputs, resetting: np.ndarray | None = None, rngs: np.ndarray | None = None
@@ -465,49 +536,35 @@ class DiskBatch:
         Returns:
             The first disk whose action is not finite (then nothing was stepped or reset), or -1.
         """
-        if self._growing:
-            self._grow_tracking()
-        # Without resets, the step compiled for none (4 arrays fewer to pass: 0.4 us of a single env's step).
-        rngs = self._no_rngs if rngs is None else rngs
-        resets = None if resetting is None else (resetting, rngs, self.uniforms, self.no_state)
-        arguments = (actions, self._arrays, out.shares, resets)
+        if resetting is None:
+            return self._call(True, actions, out)
+        self._draw_from(rngs)
+        np.copyto(self.mask, resetting)
+        try:
+            return self._call(True, actions, out)
+        finally:
+            self.mask.fill(False)
+
+    def _call(self, stepping: bool, actions: np.ndarray, out: Outputs) -> int:
+        """Calls the compiled step (``stepping``: a step, then the resets of :attr:`mask`) or reset (the resets
+        alone), on the threads or not as :attr:`choice` says (which times the steps)."""
+        arguments = (actions, self._arrays, out.shares, stepping)
         if self.choice is None:
-            bad = self._step(False, arguments)(*arguments)
-        else:
-            threaded = self.choice.next()
-            start = time.perf_counter()
-            bad = self._step(threaded, arguments)(*arguments)
-            self.choice.record(threaded, time.perf_counter() - start)
+            return self._entry(False, arguments)(*arguments)
+        if not stepping:
+            return self._entry(self.choice.threaded, arguments)(*arguments)
+        threaded = self.choice.next()
+        start = time.perf_counter()
+        bad = self._entry(threaded, arguments)(*arguments)
+        self.choice.record(threaded, time.perf_counter() - start)
         return bad
 
-    @property
-    def tracked_steps(self) -> int:
-        """The steps whose tracking-error sums the history of :attr:`error_sums` holds."""
-        return (self.error_sums.shape[1] - engine.HISTORY) * engine.SUM_BLOCK
-
-    def _grow_tracking(self) -> None:
-        """Doubles the error sums' history before a step could write past it (longer episodes than it holds). A step
-        adds at most one to each step count, so after a look at the longest episode the next is due when it could
-        have reached the end of the history: the look (a max over the disks) took several microseconds of a single
-        env's step."""
-        self._unchecked -= 1
-        if self._unchecked > 0:
-            return
-        longest = int(self.steps[: self.num_envs].max())
-        if longest + 1 >= self.tracked_steps:
-            history = self.error_sums[:, engine.HISTORY :]
-            self.error_sums = np.concatenate([self.error_sums, _touched(np.empty_like(history))], axis=1)
-            self._bundle()
-        self._unchecked = self.tracked_steps - 1 - longest
-
-    def _step(self, threaded: bool, arguments: tuple):
-        """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every step
-        passes: ``actions`` a C-contiguous float32 (N, A) array, the batch's bundle, outputs of :meth:`outputs`,
-        and the resets (:class:`~rolling_disk_env.engine.ResetArrays`: a C-contiguous bool mask, uint64 PCG64
-        states, the batch's uniforms and :attr:`no_state`), or None: a function for each (the one compiled for
-        resets, called without, would crash)."""
-        key = 2 * threaded + (arguments[-1] is None)
-        entry = self._entries[key]
+    def _entry(self, threaded: bool, arguments: tuple):
+        """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every call
+        passes: ``actions`` a C-contiguous float32 (N, A) array (a reset passes one of no rows), the batch's bundle,
+        outputs of :meth:`outputs`, and whether to step."""
+        entry = self._entries[threaded]
         if entry is None:
-            entry = self._entries[key] = entry_point(self._steps[threaded], arguments)
+            name = f"{self.description}{', threaded' if threaded else ''}"
+            entry = self._entries[threaded] = entry_point(self._steps[threaded], arguments, name)
         return entry

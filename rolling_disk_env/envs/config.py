@@ -252,6 +252,7 @@ class EnvConfig:
             engine.CONTACT: float(CONTACTS.index(self.contact)),
             engine.MAX_STEPS: max_episode_steps or 0,
             engine.SUCCESS_BOUND: self.task.success_bound,
+            engine.SUCCESS_DECAY: math.exp(-self.dt / self.task.success_time_constant),
         }
         return np.array([values[key] for key in sorted(values)], dtype=np.float64)
 

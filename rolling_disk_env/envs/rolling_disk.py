@@ -125,9 +125,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     ``"slip_velocity"`` (m/s, the contact point's horizontal velocity; zeros while rolling), the
     ``"reward_<term>"`` keys (0 at reset), ``"termination"`` and
     ``"is_success"``: whether the episode counts as a success *if it ended at this step*, so True from the first
-    step for a disk that has not fallen (``upright``: not fallen; ``circle``: not fallen and a mean radial error over
-    the last half of the episode of at most 0.25 m), while on ``goto`` it is False until the step that reaches the
-    target. SB3's ``Monitor`` and ``EvalCallback`` read it at the end.
+    step for a disk that has not fallen (``upright``: not fallen; ``circle``: not fallen and an exponentially weighted
+    mean radial error, time constant 2.5 s, of at most 0.25 m), while on ``goto`` it is False until the step that
+    reaches the target. SB3's ``Monitor`` and ``EvalCallback`` read it at the end.
 
     ## Arguments
 

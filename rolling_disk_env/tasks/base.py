@@ -18,8 +18,8 @@ episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :at
   such as LIFTED_OFF), ``effort`` the mean squared normalized action, in [0, 1]; the engine weights and sums them;
 * ``termination(x, goal, settings)``: the engine's code :data:`~rolling_disk_env.engine.RUNNING`,
   :data:`~rolling_disk_env.engine.FALLEN` or :data:`~rolling_disk_env.engine.REACHED`;
-* ``tracking_error(x, goal, settings)``: the error whose mean decides success (only for the success rule
-  :data:`TRACK`).
+* ``tracking_error(x, goal, settings)``: the error whose exponentially weighted mean decides success (only for the
+  success rule :data:`TRACK`).
 
 The kernels the step calls (all but ``start``) are declared with :data:`rolling_disk_env.jit.inline_kernel`, so
 that numba writes them into the step's loop: a call left in the loop keeps it from vectorizing.
@@ -53,8 +53,9 @@ MASS, GRAVITY, RADIUS = range(3)
 """Positions in a disk ``(m, g, r)``."""
 
 SURVIVE, TRACK, REACH = range(3)
-"""Success rules: not falling; not falling with a mean tracking error over the last half of the episode within
-``success_bound``; reaching the goal."""
+"""Success rules: not falling; not falling with an exponentially weighted mean of the tracking error over the episode
+(time constant ``success_time_constant``, :func:`rolling_disk_env.engine.track`) within ``success_bound``; reaching
+the goal."""
 
 RATE_BOUND = 100.0
 """rad/s. Observed rates are clipped to +-RATE_BOUND so that the observation space is bounded."""
@@ -82,6 +83,8 @@ class Task(ABC):
         fall_lean: rad. The disk has fallen when |theta| exceeds it.
         success: the success rule, :data:`SURVIVE`, :data:`TRACK` or :data:`REACH`.
         success_bound: the bound of the success rule :data:`TRACK` (or of :data:`REACH`'s distance).
+        success_time_constant: s. The time constant of the success rule :data:`TRACK`'s exponentially weighted mean:
+            the error of a step t seconds ago weighs ``exp(-t / success_time_constant)`` against the latest's.
     """
 
     name: ClassVar[str]
@@ -93,6 +96,7 @@ class Task(ABC):
     fall_lean: float
     success: ClassVar[int] = SURVIVE
     success_bound: float = math.inf
+    success_time_constant: float = math.inf
 
     @classmethod
     def source_hash(cls) -> str:
