@@ -278,7 +278,8 @@ class DeviceBatch(DiskBatch):
         final: SAME_STEP's last outputs of the disks that ended at the latest step (the rows of :attr:`final_mask`).
         final_mask: (N,) bool.
         ended: (N,) bool, the disks whose episode ended at their latest step (NEXT_STEP and DISABLED).
-        steps: (N,) int64, each disk's steps in its episode (it truncates at ``max_episode_steps``); writable.
+        steps_tensor: (N,) int64, each disk's steps in its episode (it truncates at ``max_episode_steps``);
+            writable.
         status: (2,) int64, the check's word (:class:`~rolling_disk_env.engine.DeviceControl`).
     Not picklable.
     """
