@@ -404,11 +404,6 @@ class DeviceBatch(DiskBatch):
         self._to_host()
         return super().states
 
-    def outputs(self, zeroed: bool = True) -> Outputs:
-        """The batch's outputs, :attr:`out` (``zeroed`` has no effect: a reset writes the disks it starts and leaves
-        the others' latest outputs)."""
-        return self.out
-
     def __getstate__(self):
         raise TypeError("a DeviceBatch lives in device memory: it cannot be pickled")
 
