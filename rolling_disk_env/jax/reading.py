@@ -10,13 +10,18 @@ and tuples of floats, which numba compiles. :func:`traced` reads the same source
 * ``and``, ``or`` and ``not`` become their element-wise forms (``&``, ``|``, ``~`` on booleans);
 * a guard ``if c: return a`` followed by the rest of the body becomes ``where(c, a, <the rest's value>)``;
 * ``min``, ``max``, ``math.sqrt``, ``math.isfinite``, ... become ``jax.numpy``'s functions, and
-  :func:`rolling_disk_env.trig.floor` (an IEEE trick for doubles) ``jnp.floor``, exact in float32 as in float64.
+  :func:`rolling_disk_env.trig.floor` (an IEEE trick for doubles) ``jnp.floor``, exact in float32 as in float64;
+* an iteration ``for _ in range(n):`` whose body assigns names and leaves by ``if c: break`` (the Newton solve of
+  :func:`rolling_disk_env.engine.steady_circle`, which the ``circle`` task's reset calls) becomes its ``n`` copies
+  (unrolled when JAX traces it), each holding the names bound before the loop (``where``) once a ``c`` has held:
+  the same values as the loop that breaks, from a fixed count of steps, ``n`` of them every time.
 
 A kernel the JAX reading calls (a numba dispatcher, or a function of a module it reads through an attribute, as
-``kernels.diagnostics``) is read in turn, on first use. Kernels with loops (the batch loops, dopri5's adaptive
-control, the Coulomb hybrid's event location) have no JAX reading: :func:`traced` raises ``NotImplementedError``
-naming them. Float constants stay Python floats (weakly typed in JAX), so a kernel computes in the precision of its
-arguments: float64 where ``jax_enable_x64`` is on, float32 otherwise.
+``kernels.diagnostics``) is read in turn, on first use. Kernels with other loops (the batch loops, dopri5's
+adaptive control, the Coulomb hybrid's event location: loops whose bodies branch, or of data-dependent length) have
+no JAX reading: :func:`traced` raises ``NotImplementedError`` naming them. Float constants stay Python floats
+(weakly typed in JAX), so a kernel computes in the precision of its arguments: float64 where ``jax_enable_x64`` is
+on, float32 otherwise.
 """
 
 from __future__ import annotations
@@ -54,10 +59,7 @@ _REPLACED = {id(getattr(math, name)): function for name, function in _MATH.items
 
 
 class _Rewrite(ast.NodeTransformer):
-    """The expression rewrites of the module docstring, and a clear error for a loop."""
-
-    def __init__(self, name: str):
-        self.name = name
+    """The expression rewrites of the module docstring."""
 
     def visit_IfExp(self, node: ast.IfExp) -> ast.Call:
         self.generic_visit(node)
@@ -71,11 +73,6 @@ class _Rewrite(ast.NodeTransformer):
     def visit_UnaryOp(self, node: ast.UnaryOp) -> ast.AST:
         self.generic_visit(node)
         return _call("_not", node.operand) if isinstance(node.op, ast.Not) else node
-
-    def _loop(self, node: ast.AST) -> None:
-        raise NotImplementedError(f"kernel {self.name!r} has a loop (line {node.lineno}): it has no JAX reading")
-
-    visit_For = visit_While = _loop
 
 
 def _call(name: str, *arguments: ast.expr) -> ast.Call:
@@ -106,6 +103,85 @@ def _guards(body: list[ast.stmt], name: str) -> list[ast.stmt]:
         )
         return [*body[:index], *kept, *rest[:-1], folded]
     return body
+
+
+def _assigned(statements: list[ast.stmt]) -> set[str]:
+    """The names that ``statements`` (assignments among others) bind at their own level."""
+    names = set()
+    for statement in statements:
+        targets = statement.targets if isinstance(statement, ast.Assign) else [getattr(statement, "target", None)]
+        for target in targets:
+            elements = target.elts if isinstance(target, ast.Tuple) else [target]
+            names |= {element.id for element in elements if isinstance(element, ast.Name)}
+    return names
+
+
+def _loops(definition: ast.FunctionDef, name: str) -> None:
+    """Rewrites the loops of ``definition``'s body into their unrolled form (:func:`_unrolled`), in place; raises
+    ``NotImplementedError`` for any other loop."""
+    bound = {argument.arg for argument in definition.args.args}
+    body = definition.body
+    top = {id(statement) for statement in body}
+    for node in ast.walk(definition):
+        if isinstance(node, ast.While) or (isinstance(node, ast.For) and id(node) not in top):
+            raise _loop_error(name, node)
+    definition.body = []
+    for index, statement in enumerate(body):
+        unrolled = isinstance(statement, ast.For)
+        definition.body += _unrolled(statement, bound, body[index + 1 :], name, index) if unrolled else [statement]
+        bound |= _assigned([statement])
+
+
+def _unrolled(loop: ast.For, bound: set[str], after: list[ast.stmt], name: str, index: int) -> list[ast.stmt]:
+    """``for _ in range(n):`` over assignments and ``if c: break`` as ``n`` copies of its body (a Python loop, which
+    JAX's trace unrolls): a flag ``_done<index>`` records that a ``c`` has held, from which point every assignment to
+    a name of ``bound`` (bound before the loop) keeps the name's value. The loop's own names must not be read
+    ``after`` it (they would hold the last copy's values, not those of the copy that broke)."""
+    done = f"_done{index}"
+    counted = isinstance(loop.iter, ast.Call) and getattr(loop.iter.func, "id", None) == "range"
+    if not (counted and len(loop.iter.args) == 1 and not loop.orelse):
+        raise _loop_error(name, loop)
+    body = []
+    for statement in loop.body:
+        breaks = isinstance(statement, ast.If) and [type(node) for node in statement.body] == [ast.Break]
+        if breaks and not statement.orelse:
+            body.append(_assign(done, _call("_or", ast.Name(id=done, ctx=ast.Load()), statement.test)))
+        elif isinstance(statement, ast.AugAssign) and isinstance(statement.target, ast.Name):
+            left = ast.Name(id=statement.target.id, ctx=ast.Load())
+            value = ast.BinOp(left=left, op=statement.op, right=statement.value)
+            body.append(_held(statement.target, value, done, bound, name))
+        elif isinstance(statement, ast.Assign) and len(statement.targets) == 1:
+            body.append(_held(statement.targets[0], statement.value, done, bound, name))
+        else:
+            raise _loop_error(name, loop)
+    read_after = {node.id for statement in after for node in ast.walk(statement) if isinstance(node, ast.Name)}
+    if (_assigned(loop.body) - bound) & read_after:
+        raise _loop_error(name, loop)
+    return [_assign(done, ast.Constant(value=False)), ast.For(target=loop.target, iter=loop.iter, body=body, orelse=[])]
+
+
+def _held(target: ast.expr, value: ast.expr, done: str, bound: set[str], name: str) -> ast.Assign:
+    """``target = value``, or ``target = where(done, target, value)`` where the target (a name, or a tuple of names)
+    is bound before the loop."""
+    names = [element.id for element in target.elts] if isinstance(target, ast.Tuple) else [target.id]
+    if not set(names) & bound:
+        return ast.Assign(targets=[target], value=value)
+    if not set(names) <= bound:
+        raise NotImplementedError(f"kernel {name!r}: a loop assigns names bound before it and its own together")
+    kept = [ast.Name(id=kept_name, ctx=ast.Load()) for kept_name in names]
+    kept = ast.Tuple(elts=kept, ctx=ast.Load()) if isinstance(target, ast.Tuple) else kept[0]
+    return ast.Assign(targets=[target], value=_call("_where", ast.Name(id=done, ctx=ast.Load()), kept, value))
+
+
+def _assign(name: str, value: ast.expr) -> ast.Assign:
+    return ast.Assign(targets=[ast.Name(id=name, ctx=ast.Store())], value=value)
+
+
+def _loop_error(name: str, node: ast.stmt) -> NotImplementedError:
+    return NotImplementedError(
+        f"kernel {name!r} has a loop (line {node.lineno}) other than 'for _ in range(n):' over assignments and "
+        "'if c: break': it has no JAX reading"
+    )
 
 
 def _where_tree(condition, a, b):
@@ -152,7 +228,8 @@ def traced(kernel):
     definition = tree.body[0]
     definition.decorator_list = []
     definition.body = _guards(definition.body, name)
-    tree = ast.fix_missing_locations(_Rewrite(name).visit(tree))
+    _loops(definition, name)
+    tree = ast.fix_missing_locations(_Rewrite().visit(tree))
     used = {node.id for node in ast.walk(tree) if isinstance(node, ast.Name)}
     namespace = {"__builtins__": builtins, **_HELPERS, "_where": _where_tree}
     namespace |= {key: value for key, value in _BUILTINS.items() if key in used}
