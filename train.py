@@ -12,9 +12,9 @@ on that device (agents/hyperparams/rsl_rl_ppo.yml, the [gpu] extra): the run dir
 checkpoint) and policy.pt (TorchScript) instead of the .zip files, and the same table.
 
 With --jax, rejax's PPO trains on the task's gymnax env (rolling_disk_env.jax), the env, the rollouts and the updates
-compiled into one XLA program (agents/hyperparams/rejax_ppo.yml, the [jax] extra; tasks upright and goto): the run
-directory holds policy.msgpack and timings.md (compile and training time) instead of the .zip files, and the same
-table, evaluated on the Gymnasium env.
+compiled into one XLA program (agents/hyperparams/rejax_ppo.yml, the [jax] extra): the run directory holds
+policy.msgpack and timings.md (compile and training time) instead of the .zip files, and the same table, evaluated
+on the Gymnasium env.
 
 examples:
   python train.py                                   # PPO on task upright: the README's main job

@@ -97,7 +97,7 @@ def train_in_jax(
     as :func:`agents.training.train` does (the same seeded episodes, the same table).
 
     Args:
-        task: a key of :data:`rolling_disk_env.TASK_IDS` (``upright`` or ``goto``).
+        task: a key of :data:`rolling_disk_env.TASK_IDS`.
         hyperparams: one block of ``agents/hyperparams/rejax_ppo.yml`` (not modified).
         out: the run directory (created).
         timesteps: environment steps; default the block's ``total_timesteps``.

@@ -5,6 +5,7 @@ extra (.ci/run), where no test may skip. JAX computes in float64 here (jax_enabl
 """
 
 import importlib.util
+import math
 import os
 
 import numpy as np
@@ -18,12 +19,13 @@ import jax
 import jax.numpy as jnp
 
 import rolling_disk_env as rd
+from rolling_disk_env import engine
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.jax import make, traced
 
 jax.config.update("jax_enable_x64", True)
 
-TASKS = ("upright", "goto")
+TASKS = tuple(rd.TASK_IDS)
 METHODS = ("euler", "symplectic_euler", "rk4")
 RTOL = 1e-12
 DISK = (5.0, 9.81, 1.0)  # (m, g, r) of the default DiskParams
@@ -70,6 +72,21 @@ def test_lean_jacobians_equal_the_derived_ones():
         expected = np.array(kernels.lean_jacobians.py_func(tuple(y), u[0], u[1], m, g, r))
         assert np.all(np.isfinite(got))
         np.testing.assert_allclose(got, expected, rtol=RTOL, atol=1e-12 * np.abs(expected).max())
+
+
+def test_steady_circle_newton_iteration_reads_as_the_engines():
+    """The JAX reading of engine.steady_circle, a Newton iteration that breaks when it has converged (read as its 50
+    steps, each holding the solution once converged), gives the engine's steady circles vmapped over radii from
+    0.05 m to 10 km, within 1e-14 (the two libraries' atan), with NaN where neither has one; a loop whose body
+    branches has no reading."""
+    solve = traced(engine.steady_circle)
+    radii = np.concatenate([np.geomspace(0.05, 1e4, 500), np.linspace(3.0, 6.0, 100)])
+    got = np.asarray(jax.jit(jax.vmap(lambda radius: jnp.stack(solve(radius, 2.0, 9.81, 1.0))))(radii))
+    expected = np.array([engine.steady_circle(radius, 2.0, 9.81, 1.0) for radius in radii])
+    assert 0 < np.isnan(expected).sum() < len(radii)
+    np.testing.assert_allclose(got, expected, rtol=1e-14, atol=0)
+    with pytest.raises(NotImplementedError, match="lean_advance_adaptive' has a loop"):
+        traced(engine.lean_advance_adaptive)
 
 
 def rollout_cost(step, x, torques, dt, disk):
@@ -124,9 +141,10 @@ def test_rollout_gradient_matches_finite_differences_of_the_engine():
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("substeps", [1, 3])
 def test_step_equals_the_engine(task, method, substeps):
-    """From the engine's state at each step and the same action (teacher-forced), the JAX step gives the Gymnasium
-    env's observation, reward, termination and info; and left to run on its own for 200 steps (or to the end of the
-    episode), it stays within 1e-12 of the engine."""
+    """From the engine's state at each step and the same action (teacher-forced: the state; the success rule's
+    running sums come from the previous forced step), the JAX step gives the Gymnasium env's observation, reward,
+    termination and info; and left to run on its own for 200 steps (or to the end of the episode), it stays within
+    1e-12 of the engine."""
     kwargs = {"integrator": method, "substeps": substeps}
     env, params = make(task, **kwargs)
     step = jax.jit(env.step_env)
@@ -137,18 +155,62 @@ def test_step_equals_the_engine(task, method, substeps):
         _, info = reference.reset(seed=seed)
         goal = np.array(list(reference.goal.values()))
         observation, free = env.start_from(info["state"], goal, params)
+        forced = free
         for _ in range(200):
             action = rng.uniform(-1.0, 1.0, 2).astype(np.float32)
-            _, forced = env.start_from(info["state"], goal, params)
+            forced = forced.replace(x=jnp.asarray(info["state"]))
             expected = reference.step(action)
             expected = (expected[0], expected[1], expected[2], expected[4])
-            observation, _, reward, terminated, info_jax = step(key, forced, jnp.asarray(action), params)
+            observation, forced, reward, terminated, info_jax = step(key, forced, jnp.asarray(action), params)
             assert_step_agrees((observation, reward, terminated, info_jax), expected)
             observation, free, reward, terminated, info_free = step(key, free, jnp.asarray(action), params)
             assert_step_agrees((observation, reward, terminated, info_free), expected)
             info = expected[3]
             if expected[2]:
                 break
+
+
+def test_circle_success_is_the_weighted_mean_radial_error_within_its_bound():
+    """circle's is_success, step by step over an episode where it changes (the running sums carried), is the numba
+    env's and an independent computation's from the engine's states: not fallen and the exponentially weighted mean
+    of |e_r| over the steps so far, sum_n w^(N-n) |e_r(n)| / sum_n w^(N-n) with w = exp(-0.02 s / 2.5 s), at most
+    0.25 m (the task's documented rule); the JAX state's sums give that mean to 1e-12, and gymnax's autoreset zeroes
+    them. The disk starts 0.4 m inside the circle, tangent to it, and rolls on with no torque: its straight path
+    crosses the circle and leaves it, so the mean falls below the bound, then rises above it."""
+    decay, bound = math.exp(-0.02 / 2.5), 0.25
+    kwargs = {"initial_ranges": {"radial_offset": (-0.4, -0.4), "heading_error": (0.0, 0.0)}}
+    env, params = make("circle", **kwargs)
+    reference = numba_env("circle", **kwargs)
+    _, info = reference.reset(seed=0)
+    goal = reference.goal
+    _, state = env.start_from(info["state"], np.array(list(goal.values())), params)
+    step = jax.jit(env.step_env)
+    action = np.zeros(2, np.float32)
+    errors, fallen, means, jax_success, numba_success = [], [], [], [], []
+    for _ in range(300):
+        _, state, _, _, info_jax = step(jax.random.PRNGKey(0), state, jnp.asarray(action), params)
+        _, _, terminated, _, info = reference.step(action)
+        c1, c2 = info["state"][:2]
+        errors.append(abs(math.hypot(c1 - goal["cx"], c2 - goal["cy"]) - goal["radius"]))
+        fallen.append(info["termination"] == rd.Termination.FALLEN)
+        means.append(float(state.tracking_sum / state.tracking_weight))
+        jax_success.append(bool(info_jax["is_success"]))
+        numba_success.append(info["is_success"])
+        if terminated:
+            break
+    weights = decay ** np.subtract.outer(np.arange(len(errors)), np.arange(len(errors)))
+    weights = np.tril(weights)  # row N: w^(N-n) for the steps n <= N
+    expected_means = weights @ np.array(errors) / weights.sum(axis=1)
+    expected = (expected_means <= bound) & ~np.array(fallen)
+    assert np.count_nonzero(np.diff(expected)) >= 2  # False, then True, then False
+    np.testing.assert_array_equal(jax_success, expected)
+    np.testing.assert_array_equal(numba_success, expected)
+    np.testing.assert_allclose(means, expected_means, rtol=RTOL)
+    _, state, _, _, truncated, _ = jax.jit(env.step)(
+        jax.random.PRNGKey(1), state, jnp.asarray(action), params.replace(max_steps_in_episode=state.time + 1)
+    )
+    assert bool(truncated)
+    assert float(state.tracking_sum) == float(state.tracking_weight) == 0.0
 
 
 def test_slipped_where_the_contact_needs_more_friction():

@@ -4,18 +4,18 @@
 terminated, truncated, info)`` and resets the episodes that end in the same call, ``info["final_observation"]``
 holding the observation they ended on). Its step is the engine's control period (``_generated/<task>.py``'s step,
 in the same order): the action's torques, the integrator's substeps, the domain check, the contact check, the
-task's termination, reward terms, observation and success. Every formula in it is a kernel of the package read as
+task's termination, reward terms, observation and success (the task's success rule: SURVIVE, TRACK with its two
+running sums in :class:`EnvState`, or REACH). Every formula in it is a kernel of the package read as
 JAX (:mod:`rolling_disk_env.jax.reading`): the model's generated steps, the engine's checks and the task's formulas,
 so the physics and the tasks exist once.
 
-What is supported: the ``"rolling"`` contact (with ``friction_coefficient``: ``SLIPPED`` where the contact needs
-more); the fixed-step integrators ``"euler"``, ``"symplectic_euler"`` and ``"rk4"`` with any ``substeps``; the tasks
-``upright`` and ``goto``. Not (``ValueError``): ``"dopri5"`` (its step size is carried from period to period and its
+What is supported: every task; the ``"rolling"`` contact (with ``friction_coefficient``: ``SLIPPED`` where the
+contact needs more); the fixed-step integrators ``"euler"``, ``"symplectic_euler"`` and ``"rk4"`` with any
+``substeps``. Not (``ValueError``): ``"dopri5"`` (its step size is carried from period to period and its
 steps are accepted or rejected in a loop of data-dependent length; a ``lax.while_loop`` would express it, but not
 differentiably by reverse mode, and its numba kernels, loops with early exits, have no JAX reading), the
 ``"sliding"`` and ``"coulomb"`` contacts (event location by bisection and mode switching, loops of data-dependent
-length in the engine), ``params_ranges`` (vmap over :class:`EnvParams` of different disks instead), and ``circle``
-(its success rule is being rewritten).
+length in the engine), and ``params_ranges`` (vmap over :class:`EnvParams` of different disks instead).
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from flax import struct
 from gymnax.environments import environment, spaces
 
@@ -34,10 +33,8 @@ from rolling_disk_env import engine
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.jax.reading import traced
-from rolling_disk_env.tasks.base import REACH
+from rolling_disk_env.tasks.base import REACH, TRACK
 
-SUPPORTED_TASKS = ("upright", "goto")
-"""The tasks with a JAX env."""
 FIXED_STEP_METHODS = ("euler", "symplectic_euler", "rk4")
 """The integrators with a JAX reading."""
 
@@ -50,12 +47,19 @@ class EnvState(environment.EnvState):
         x: the state ``(c1, c2, phi, theta, psi, dphi, dtheta, dpsi)``, m, rad, m/s, rad/s.
         goal: the episode's targets (the task's ``goal_names``).
         success: whether the episode counts as a success if it ended now (``info["is_success"]``).
+        tracking_sum: the success rule TRACK's exponentially weighted sum of the task's ``tracking_error`` over the
+            episode's steps (its unit: m for ``circle``), zero at the reset (:func:`rolling_disk_env.engine.track`;
+            the engine's row TRACKING_SUM). Zero throughout under the other rules.
+        tracking_weight: the sum of its weights, dimensionless (the engine's row TRACKING_WEIGHT): the ratio
+            ``tracking_sum / tracking_weight`` is the error's exponentially weighted mean.
         time: steps since the episode started.
     """
 
     x: jax.Array
     goal: jax.Array
     success: jax.Array
+    tracking_sum: jax.Array
+    tracking_weight: jax.Array
     time: int
 
 
@@ -77,6 +81,11 @@ class EnvParams(environment.EnvParams):
         reward_weights: the weights of the task's reward terms, in their order.
         ranges: (draws, 2) the uniform ranges of the task's goal, then of its initial state.
         observation_high: the observation's bounds (clipped to them).
+        success_bound: the success rule TRACK's bound on the tracking error's weighted mean, in the error's unit (m
+            for ``circle``); the other rules do not read it.
+        success_decay: the success rule TRACK's weight of the previous step's sums, ``exp(-dt / tau)`` with the
+            task's ``success_time_constant`` tau (s), dimensionless; the other rules do not read it. It is computed
+            for ``dt``: replace the two together.
         max_steps_in_episode: steps before truncation (500: 10 s, as ``gymnasium.make``'s TimeLimit).
         substeps: integrator steps per control period.
         integrator: ``"euler"``, ``"symplectic_euler"`` or ``"rk4"``.
@@ -93,6 +102,8 @@ class EnvParams(environment.EnvParams):
     reward_weights: Any = None
     ranges: Any = None
     observation_high: Any = None
+    success_bound: float = float("inf")
+    success_decay: float = 1.0
     max_steps_in_episode: int = rd.MAX_EPISODE_STEPS
     substeps: int = struct.field(pytree_node=False, default=1)
     integrator: str = struct.field(pytree_node=False, default="rk4")
@@ -104,7 +115,7 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
     ``info`` keys (as arrays), from the same kernels.
 
     Args:
-        task: ``"upright"`` or ``"goto"``.
+        task: a key of :data:`rolling_disk_env.TASK_IDS`.
         **kwargs: the Gymnasium env's keyword arguments (``dt``, ``integrator``, ``substeps``, ``params``,
             ``friction_coefficient``, ``max_spin_torque``, ``max_steer_torque``, ``actuators``, ``initial_ranges``,
             ``task_options``), checked by the same code; they make :attr:`default_params`.
@@ -119,8 +130,6 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
     def __init__(self, task: str = "upright", **kwargs):
         super().__init__()
         self.config = config = EnvConfig.from_kwargs(task=task, **kwargs)
-        if config.task.name not in SUPPORTED_TASKS:
-            raise ValueError(f"task must be one of {list(SUPPORTED_TASKS)} in JAX, got {config.task.name!r}")
         if config.integrator not in FIXED_STEP_METHODS:
             raise ValueError(
                 f"integrator must be one of {list(FIXED_STEP_METHODS)} in JAX (fixed steps), got {config.integrator!r}"
@@ -135,6 +144,9 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
         self._observe = traced(module.observe)
         self._reward_terms = traced(module.reward_terms)
         self._termination = traced(module.termination)
+        if self.task.success == TRACK:
+            self._tracking_error = traced(module.tracking_error)
+            self._track = traced(engine.track)
         self._angles = traced(kernels.angles)
         self._contact = traced(engine.contact)
         self._contact_status = traced(engine.contact_status)
@@ -153,20 +165,24 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
 
     @property
     def default_params(self) -> EnvParams:
-        """The Gymnasium env's settings of the keyword arguments given, as arrays in JAX's default float type."""
+        """The Gymnasium env's settings of the keyword arguments given, as arrays in JAX's default float type; the
+        friction coefficient and the success rule's bound and decay are the entries of the engine's ``config``."""
         config = self.config
         m, g, r = config.params.constants
+        engine_config = config.engine_config(None)
         return EnvParams(
             mass=m,
             gravity=g,
             radius=r,
             dt=config.dt,
             max_torques=jnp.asarray(config.max_torque),
-            friction_coefficient=float(np.inf if config.friction_coefficient is None else config.friction_coefficient),
+            friction_coefficient=float(engine_config[engine.FRICTION]),
             settings=jnp.asarray(self.task.settings),
             reward_weights=jnp.asarray(self.task.weights),
             ranges=jnp.asarray(config.ranges),
             observation_high=jnp.asarray(self.task.observation_high),
+            success_bound=float(engine_config[engine.SUCCESS_BOUND]),
+            success_decay=float(engine_config[engine.SUCCESS_DECAY]),
             substeps=config.substeps,
             integrator=config.integrator,
             actuators=tuple(int(row) for row in config.actuators_array[:, 0]),
@@ -194,7 +210,8 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
         dtype = jnp.result_type(float)
         x, goal = jnp.asarray(x, dtype), jnp.asarray(goal, dtype)
         success = jnp.asarray(self.task.success != REACH)
-        state = EnvState(x=x, goal=goal, success=success, time=0)
+        zero = jnp.zeros((), dtype)
+        state = EnvState(x=x, goal=goal, success=success, tracking_sum=zero, tracking_weight=zero, time=0)
         return self._observation(tuple(x), tuple(goal), params), state
 
     def _observation(self, x: tuple, goal: tuple, params: EnvParams) -> jax.Array:
@@ -232,8 +249,21 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
         for weight, term in zip(params.reward_weights[1:], terms[1:]):
             reward = reward + weight * term
         success = code == (engine.REACHED if self.task.success == REACH else engine.RUNNING)
+        tracking_sum, tracking_weight = state.tracking_sum, state.tracking_weight
+        if self.task.success == TRACK:
+            error = self._tracking_error(x, goal, settings)
+            decay, bound = params.success_decay, params.success_bound
+            tracking_sum, tracking_weight, within = self._track(tracking_sum, tracking_weight, error, decay, bound)
+            success = success & within
         terminated = code != engine.RUNNING
-        state = EnvState(x=jnp.stack(x), goal=state.goal, success=success, time=state.time + 1)
+        state = EnvState(
+            x=jnp.stack(x),
+            goal=state.goal,
+            success=success,
+            tracking_sum=tracking_sum,
+            tracking_weight=tracking_weight,
+            time=state.time + 1,
+        )
         observation = self._observation(x, goal, params)
         info = {
             "state": state.x,
