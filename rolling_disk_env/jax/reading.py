@@ -156,14 +156,17 @@ def _unrolled(loop: ast.For, bound: set[str], after: list[ast.stmt], name: str, 
             raise _loop_error(name, loop)
     read_after = {node.id for statement in after for node in ast.walk(statement) if isinstance(node, ast.Name)}
     if (_assigned(loop.body) - bound) & read_after:
-        raise _loop_error(name, loop)
+        raise NotImplementedError(f"kernel {name!r}: names first bound in the loop (line {loop.lineno}) are read later")
     return [_assign(done, ast.Constant(value=False)), ast.For(target=loop.target, iter=loop.iter, body=body, orelse=[])]
 
 
 def _held(target: ast.expr, value: ast.expr, done: str, bound: set[str], name: str) -> ast.Assign:
     """``target = value``, or ``target = where(done, target, value)`` where the target (a name, or a tuple of names)
     is bound before the loop."""
-    names = [element.id for element in target.elts] if isinstance(target, ast.Tuple) else [target.id]
+    elements = target.elts if isinstance(target, ast.Tuple) else [target]
+    if not all(isinstance(element, ast.Name) for element in elements):
+        raise NotImplementedError(f"kernel {name!r}: a loop assigns to other than names (line {target.lineno})")
+    names = [element.id for element in elements]
     if not set(names) & bound:
         return ast.Assign(targets=[target], value=value)
     if not set(names) <= bound:
