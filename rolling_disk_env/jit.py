@@ -116,9 +116,12 @@ _allow_memory_checks()
 
 kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy")
 """Compiles a function of one disk, or a loop over a batch of disks, cached (where a directory is writable)."""
-inline_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", inline="always")
-"""Compiles a function that numba inlines into each caller: a per-disk body called in a loop with many arrays, whose
-arguments a real call would pass one by one for every disk."""
+inline_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", forceinline=True)
+"""Compiles a function that LLVM inlines into each caller (``alwaysinline``): a per-disk body called in a loop over
+the disks, where a call left in the loop would keep it from vectorizing (LLVM's own inliner leaves the larger ones,
+the tasks' reward terms and the integrators' steps, as calls). Numba's own inlining (``inline="always"``, which
+rewrites the caller's bytecode-level IR before typing it) gives the same machine code but took about 60% of the
+compile time of a step: see ``benchmarks/results/compile.md``."""
 parallel_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", parallel=True)
 """Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""
 prange = numba.prange

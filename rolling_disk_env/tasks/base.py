@@ -22,7 +22,7 @@ episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :at
   success rule :data:`TRACK`).
 
 The kernels the step calls (all but ``start``) are declared with :data:`rolling_disk_env.jit.inline_kernel`, so
-that numba writes them into the step's loop: a call left in the loop keeps it from vectorizing.
+that LLVM writes them into the step's loop: a call left in the loop keeps it from vectorizing.
 
 Each module names the positions it reads in these tuples with constants (numba folds them), as :data:`THETA` and the
 others do for the state. Use IEEE-exact operations (+, -, *, /, sqrt) and
