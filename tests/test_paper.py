@@ -10,6 +10,10 @@ from rolling_disk_env import paper
 from rolling_disk_env.rendering import rim_points
 from tests import reference
 
+# The SymPy derivation (about a minute, cached in the process) runs in one pytest-xdist worker for the three files
+# that need it: test_codegen, test_derivation and test_paper (`--dist loadgroup` in pyproject.toml).
+pytestmark = pytest.mark.xdist_group("derivation")
+
 
 def test_paper_cli_reports_matches_and_writes_the_figures(tmp_path, capsys):
     paper.main(["--out", str(tmp_path)])
