@@ -1,5 +1,5 @@
 """Test-wide settings: headless rendering, a quiet matplotlib, and at most :data:`MAX_WORKERS` pytest-xdist workers
-for ``-n auto`` (the README's test command)."""
+for ``-n auto`` (the README's test command), which keep the tests of one ``xdist_group`` in one worker."""
 
 import os
 
@@ -21,3 +21,22 @@ def pytest_xdist_auto_num_workers(config):
     (``PYTEST_XDIST_AUTO_NUM_WORKERS``)."""
     workers = yield
     return workers if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS") else min(workers, MAX_WORKERS)
+
+
+
+def pytest_configure(config):
+    """Under pytest-xdist (``-n``), its ``loadgroup`` scheduling instead of ``load``: the tests marked with the same
+    ``xdist_group`` run in one worker (the three files that need the SymPy derivation, which then derives once).
+    Set here rather than in ``addopts``, which would be an error where pytest-xdist is not installed: the controller
+    schedules by group, and each worker (told so in :func:`pytest_configure_node`) names its tests' groups."""
+    if getattr(config.option, "dist", "no") == "load":
+        config.option.dist = "loadgroup"
+    if getattr(config, "workerinput", {}).get("loadgroup"):
+        config.option.loadgroup = True
+    config.addinivalue_line("markers", "xdist_group(name): run in the same pytest-xdist worker as the group's others")
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node):
+    """pytest-xdist's controller, for each worker it starts: whether the worker's tests are scheduled by group."""
+    node.workerinput["loadgroup"] = node.config.option.dist == "loadgroup"

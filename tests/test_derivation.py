@@ -8,7 +8,7 @@ from rolling_disk_env import derivation as d
 from rolling_disk_env import paper
 
 # The SymPy derivation (about a minute, cached in the process) runs in one pytest-xdist worker for the three files
-# that need it: test_codegen, test_derivation and test_paper (`--dist loadgroup` in pyproject.toml).
+# that need it: test_codegen, test_derivation and test_paper (conftest.py's pytest_configure).
 pytestmark = pytest.mark.xdist_group("derivation")
 
 

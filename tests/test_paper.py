@@ -11,7 +11,7 @@ from rolling_disk_env.rendering import rim_points
 from tests import reference
 
 # The SymPy derivation (about a minute, cached in the process) runs in one pytest-xdist worker for the three files
-# that need it: test_codegen, test_derivation and test_paper (`--dist loadgroup` in pyproject.toml).
+# that need it: test_codegen, test_derivation and test_paper (conftest.py's pytest_configure).
 pytestmark = pytest.mark.xdist_group("derivation")
 
 
