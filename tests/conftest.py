@@ -23,7 +23,6 @@ def pytest_xdist_auto_num_workers(config):
     return workers if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS") else min(workers, MAX_WORKERS)
 
 
-
 def pytest_configure(config):
     """Under pytest-xdist (``-n``), its ``loadgroup`` scheduling instead of ``load``: the tests marked with the same
     ``xdist_group`` run in one worker (the three files that need the SymPy derivation, which then derives once).
