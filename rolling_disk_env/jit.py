@@ -120,8 +120,8 @@ inline_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy
 """Compiles a function that LLVM inlines into each caller (``alwaysinline``): a per-disk body called in a loop over
 the disks, where a call left in the loop would keep it from vectorizing (LLVM's own inliner leaves the larger ones,
 the tasks' reward terms and the integrators' steps, as calls). Numba's own inlining (``inline="always"``, which
-rewrites the caller's bytecode-level IR before typing it) gives the same machine code but took about 60% of the
-compile time of a step: see ``benchmarks/results/compile.md``."""
+copies the callee's IR into each caller before typing it) gave the same results to the last bit and no faster steps,
+but took about 60% of a step's compile time (``docs/performance/history.md``, ``benchmarks/results/compile.md``)."""
 parallel_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", parallel=True)
 """Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""
 prange = numba.prange
