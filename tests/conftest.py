@@ -3,6 +3,8 @@ for ``-n auto`` (the README's test command), which keep the tests of one ``xdist
 
 import os
 
+os.environ.setdefault("SYMPY_CACHE_SIZE", "100000")  # the derivation's simplification revisits subexpressions
+
 import pytest
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")

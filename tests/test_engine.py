@@ -150,15 +150,16 @@ def test_a_large_batch_has_shares_of_rows_of_an_odd_number_of_cache_lines(num_en
         assert width == num_envs
     else:
         assert num_envs <= width <= num_envs + 16 and width % 8 == 0 and (width // 8) % 2 == 1
-    env = rd.RollingDiskVectorEnv(num_envs=num_envs)
+    # circle: the task whose threaded step test_vector_env compiles too (one parallel compile for both files)
+    env = rd.RollingDiskVectorEnv(num_envs=num_envs, task="circle")
     batch = env._batch
     assert batch.threads == (jit.numba.get_num_threads() if num_envs >= THREADS_FROM else 1)
     assert batch.share == columns(-(-num_envs // batch.threads))
     assert batch.lanes.shape == (engine.LANES, batch.threads * batch.share)
     observations, infos = env.reset(seed=0)
-    assert observations.shape == (num_envs, 4) and infos["energy"].shape == (num_envs,)
+    assert observations.shape == (num_envs, 8) and infos["energy"].shape == (num_envs,)
     observations, rewards, terminated, _, infos = env.step(np.zeros((num_envs, 2), dtype=np.float32))
-    assert observations.shape == (num_envs, 4) and rewards.shape == terminated.shape == (num_envs,)
+    assert observations.shape == (num_envs, 8) and rewards.shape == terminated.shape == (num_envs,)
     assert np.all(np.isfinite(observations)) and np.all(np.isfinite(rewards))
 
 
