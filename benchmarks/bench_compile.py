@@ -11,8 +11,9 @@ other integrators on ``upright``, the ``"sliding"`` and ``"coulomb"`` contacts o
 ``--all`` runs the whole grid. ``--root`` times another checkout of the repository (the code before a change).
 
 *GPU* (``--gpu``, where numba-cuda is installed; no GPU needed): each CUDA kernel of ``_generated/cuda.py`` compiled
-to PTX for sm_90 by NVVM (``numba.cuda.compile_ptx``, as ``tests/test_gpu_build.py`` does), in a fresh process each.
-PTX to machine code (ptxas, at the first launch on a GPU) is not timed: it needs the driver of a GPU.
+to PTX for sm_90 by NVVM (``numba.cuda.compile_ptx``, as ``tests/test_gpu_build.py`` does), in a fresh process each,
+then the PTX to sm_90 machine code by nvJitLink (``cuda.core.Linker``: the ptxas of the CUDA wheels, as at a kernel's
+first launch), whose report gives each thread's registers, stack frame and spills.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ print(json.dumps(times))
 """
 
 GPU_CHILD = r"""
-import json, sys, time
+import json, re, sys, time
 from types import SimpleNamespace
 import numba, numpy as np
 from numba import cuda
@@ -63,13 +64,24 @@ from tests.test_gpu_build import H100, _arguments
 from rolling_disk_env._generated import cuda as kernels
 
 task, name = sys.argv[1], sys.argv[2]
-contact = {"contact": "coulomb", "friction_coefficient": 0.2} if name == "step_contact" else {}
+contact = {"contact": "coulomb", "friction_coefficient": 0.2} if name.startswith("step_contact") else {}
 config = EnvConfig.from_kwargs(task=task, **contact)
 arguments = _arguments(config, name)
 numba.cuda.dispatcher.get_current_device = lambda: SimpleNamespace(compute_capability=H100)
 start = time.perf_counter()
-cuda.compile_ptx(getattr(kernels, f"{task}_{name}"), (numba.typeof(arguments),), cc=H100)
-print(json.dumps(time.perf_counter() - start))
+ptx, _ = cuda.compile_ptx(getattr(kernels, f"{task}_{name}"), (numba.typeof(arguments),), cc=H100)
+nvvm = time.perf_counter() - start
+
+from cuda.core import Linker, LinkerOptions, ObjectCode
+start = time.perf_counter()
+linker = Linker(ObjectCode.from_ptx(ptx.encode()), options=LinkerOptions(arch="sm_90", verbose=True))
+linker.link("cubin")
+ptxas = time.perf_counter() - start
+log = linker.get_info_log()
+registers = int(re.findall(r"Used (\d+) registers", log)[-1])
+frame = r"(\d+) bytes stack frame, (\d+) bytes spill stores, (\d+) bytes spill loads"
+stack, stores, loads = map(int, re.findall(frame, log)[-1])
+print(json.dumps([nvvm, ptxas, registers, stack, stores, loads]))
 """
 
 TASKS = ("upright", "circle", "goto")
@@ -118,7 +130,7 @@ def main() -> None:
     args = arguments(
         __doc__,
         all={"action": "store_true", "help": "the whole grid of configurations (default: a sample)"},
-        gpu={"action": "store_true", "help": "also the CUDA kernels' NVVM time (needs numba-cuda)"},
+        gpu={"action": "store_true", "help": "also the CUDA kernels' NVVM and ptxas times (needs numba-cuda)"},
         root={"type": Path, "default": ROOT, "help": "the checkout to time (default: this one)"},
         python={"default": sys.executable, "help": "the Python of --gpu's runs (one with numba-cuda)"},
     )
@@ -154,11 +166,20 @@ def main() -> None:
         python = args.python
         gpu_rows = []
         for task in TASKS if not args.quick else ("upright",):
-            for name in ("reset", "step_rk4", "step_contact"):
-                seconds = child(GPU_CHILD, [task, name], root, python)
-                gpu_rows.append([f"{task}_{name}", f"{seconds:.1f}"])
+            for name in ("reset", "step_rk4", "step_contact", "step_contact_hybrid"):
+                nvvm, ptxas, registers, stack, stores, loads = child(GPU_CHILD, [task, name], root, python)
+                gpu_rows.append([f"{task}_{name}", f"{nvvm:.1f}", f"{ptxas:.1f}", registers, stack, stores, loads])
                 print(gpu_rows[-1], flush=True)
-        sections += ["", "## GPU: NVVM to PTX for sm_90", "", table(["kernel", "compile_ptx (s)"], gpu_rows)]
+        header = [
+            "kernel",
+            "NVVM to PTX (s)",
+            "ptxas to sm_90 (s)",
+            "registers a thread",
+            "stack frame (bytes)",
+            "spill stores (bytes)",
+            "spill loads (bytes)",
+        ]
+        sections += ["", "## GPU: compiled for sm_90 (NVVM, then nvJitLink's ptxas)", "", table(header, gpu_rows)]
     write_markdown(
         "compile",
         "Compile time with nothing cached",

@@ -231,7 +231,7 @@ def kernel_resources(envs) -> dict[str, tuple[int, int]]:
     """Registers and local memory (bytes) a thread of each kernel the env launched."""
     found = {}
     for launch in envs.unwrapped._batch._prepared():
-        if launch.compiled is not None:
+        if launch is not None and launch.compiled is not None:
             name = getattr(launch.function, "__name__", "kernel")
             found[name] = (int(launch.compiled.regs_per_thread), int(launch.compiled.local_mem_per_thread))
     return found

@@ -20,11 +20,13 @@ The files are plain Python on floats, readable next to the paper, and what numba
   of a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
   (the action's torques; integration and domain check; contact checks and the task's termination,
   :data:`CHECKS_TEMPLATE`; reward terms, success and observation, :data:`OUTPUTS_LOOP`), with its callers for one
-  share and for
-  several on threads, and the reset, written from :data:`STEP_TEMPLATE` and :data:`RESET_TEMPLATE`.
+  share and for several on threads (:data:`CALLERS_TEMPLATE`), and the reset, written from :data:`STEP_TEMPLATE`
+  and :data:`RESET_TEMPLATE`; the step under the ``"sliding"`` and ``"coulomb"`` contacts in its three passes
+  (:data:`CONTACT_STEP_TEMPLATE`: the rolling pass, the hybrid pass of the disks it marked, the outputs).
   Each records a hash of its task module's source, so that the engine refuses steps generated from an older task.
 * ``_generated/cuda.py``: the same steps and resets as CUDA kernels (:func:`generate_cuda`), a GPU thread a disk,
-  each a call of a task's share function on a share of one disk (compiled by :mod:`rolling_disk_env.gpu`).
+  each a call of a task's share function on a share of one disk (compiled by :mod:`rolling_disk_env.gpu`); the
+  contact step as two kernels, the rolling pass of every disk and the hybrid pass of those it queued.
 """
 
 from __future__ import annotations
@@ -598,7 +600,7 @@ HANDOVER = """
 """Between the rolling integrators' loop, which stores each disk's state and code (in ``codes``, which the checks
 overwrite), and :data:`CHECKS_TEMPLATE`."""
 
-CONTACT_TEMPLATE = """    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
+CONTACT_ROLL = """    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
     dt = period / substeps
     # Every disk rolls first, in loops that vectorize: the substeps of the rolling model, each disk marked (lanes
     # row SLIDES) where it slides, or its contact needs more friction than mu at the start of a substep (or the end
@@ -631,7 +633,13 @@ CONTACT_TEMPLATE = """    period, substeps, coulomb = config[PERIOD], int(config
         lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = dc1, dc2
         lanes[SLIDES, k, i] = 0.0 if held else 1.0
         info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = dc1, dc2
-        info[CONTACT_ROWS + 2, k, i] = info[CONTACT_ROWS + 3, k, i] = info[CONTACT_ROWS + 4, k, i] = 0.0
+        info[CONTACT_ROWS + 2, k, i] = info[CONTACT_ROWS + 3, k, i] = info[CONTACT_ROWS + 4, k, i] = 0.0"""
+"""The rolling pass of a step under the ``"sliding"`` and ``"coulomb"`` contacts (RK4 substeps), in
+``contact_roll_share``: every disk rolls, and those marked (lanes row SLIDES) are left to :data:`CONTACT_HYBRID`.
+:data:`CHECKS_TEMPLATE` with the rolling model's fields (``{rolling_checks}``). Under ``"sliding"`` every disk is
+marked."""
+
+CONTACT_HYBRID = """    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
     # The disks marked: the period again, from its start, under the hybrid (a scalar loop: the modes branch).
     for i in range(lanes.shape[2]):
         if lanes[SLIDES, k, i] == 0.0:
@@ -650,9 +658,10 @@ CONTACT_TEMPLATE = """    period, substeps, coulomb = config[PERIOD], int(config
         info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
         info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
         info[CONTACT_ROWS + 4, k, i] = contact[7]"""
-"""The integration and the checks of a step under the ``"sliding"`` and ``"coulomb"`` contacts (RK4 substeps):
-:data:`CHECKS_TEMPLATE` twice, with the rolling model's fields (``{rolling_checks}``) and the hybrid's
-(``{hybrid_checks}``). Under ``"sliding"`` every disk is marked."""
+"""The hybrid pass of a step under the ``"sliding"`` and ``"coulomb"`` contacts, in ``contact_hybrid_share``: the disks
+that :data:`CONTACT_ROLL` marked go through the period again from its start, switching modes
+(:func:`rolling_disk_env.engine.advance_contact`); :data:`CHECKS_TEMPLATE` with the hybrid's fields
+(``{hybrid_checks}``)."""
 
 STEP_TEMPLATE = """
 
@@ -678,7 +687,64 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
 {integrate}{outputs}
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     {reset}(k, resets, batch, setup, out)
+"""
+"""The fused step of one task with one rolling integrator, for a share of a batch of disks (then
+:data:`CALLERS_TEMPLATE`)."""
 
+CONTACT_STEP_TEMPLATE = """
+
+@kernel
+def contact_roll_share(k, actions, batch, setup, out):
+    \"\"\"The rolling pass of a control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of
+    share k: the action's torques, then the substeps of the rolling model and each disk's checks at the end of the
+    period, in loops over the disks that the compiler vectorizes; each disk marked (lanes row SLIDES) where it slides
+    or its contact needs more friction than mu, for :func:`contact_hybrid_share`. The arrays as :func:`step_rk4_share`
+    takes them.\"\"\"
+    {unpack}
+    settings = {settings}
+    friction = config[FRICTION]
+    disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
+    engine.action_torques(actions, actuators, lanes, k, disks)
+{roll}
+
+
+@kernel
+def contact_hybrid_share(k, batch, setup, out):
+    \"\"\"The hybrid pass of a control period under the "sliding" or "coulomb" contact: the disks of share k that
+    :func:`contact_roll_share` marked go through the period again from its start, one by one, switching modes
+    (``engine.advance_contact``). A disk that rolls on gets the same arithmetic either way.\"\"\"
+    {unpack}
+    settings = {settings}
+    friction = config[FRICTION]
+{hybrid}
+
+
+@kernel
+def contact_outputs_share(k, batch, setup, out, resets):
+    \"\"\"The end of a control period under the "sliding" or "coulomb" contact, once both passes are done: each disk's
+    reward terms, observation and flags; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_contact_share`).\"\"\"
+    {unpack}
+    settings = {settings}
+    max_steps = np.int64(config[MAX_STEPS]){track}{outputs}
+    engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
+    reset_contact_share(k, resets, batch, setup, out)
+
+
+@kernel
+def step_contact_share(k, actions, batch, setup, out, resets):
+    \"\"\"One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
+    its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
+    (:func:`contact_outputs_share`). A GPU runs the three passes as two kernels, so that the disks that slide run the
+    hybrid together (``_generated/cuda.py``).\"\"\"
+    contact_roll_share(k, actions, batch, setup, out)
+    contact_hybrid_share(k, batch, setup, out)
+    contact_outputs_share(k, batch, setup, out, resets)
+"""
+"""The step of one task under the ``"sliding"`` and ``"coulomb"`` contacts, for a share of a batch of disks, in its
+three passes (then :data:`CALLERS_TEMPLATE`)."""
+
+CALLERS_TEMPLATE = """
 
 @kernel
 def step_{method}(actions, arrays, out, stepping):
@@ -714,7 +780,8 @@ def step_{method}_threads(actions, arrays, out, stepping):
             step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 """
-"""The fused step of one task with one integrator, for a batch of disks, and its callers, which also reset."""
+"""The callers of a share's step, for a batch of disks: on the calling thread, and on numba's threads; both also only
+reset."""
 
 RESET_TEMPLATE = """
 
@@ -907,31 +974,24 @@ def generate_steps(task) -> str:
     )
     rolling_velocity = "engine.centre_velocity(x, trig, m, g, r)"
     contact_velocity = "(lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i])"
-    contact = _fill(
-        CONTACT_TEMPLATE,
-        {
-            "{rolling_checks}": _fill(CHECKS_TEMPLATE, rolling_checks),
-            "{hybrid_checks}": _fill(CHECKS_TEMPLATE, hybrid_checks),
-        },
-    )
     track = "\n    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]" if rule == "track" else ""
     steps = []
-    for method, integrate, velocity, described in [
-        *(
-            (
-                t.name,
-                _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks),
-                rolling_velocity,
-                f"with {t.name}",
-            )
-            for t in TABLEAUS
-        ),
-        ("contact", contact, contact_velocity, 'under the "sliding" or "coulomb" contact (RK4 steps)'),
-    ]:
-        template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
-        template = template.replace("{velocity}", velocity).replace("{track}", track)
-        reset = _RESETS["contact" if method == "contact" else "rolling"][0]
-        steps.append(_fill(template, {**step_fields, "{method}": method, "{described}": described, "{reset}": reset}))
+    for t in TABLEAUS:
+        integrate = _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks)
+        template = (STEP_TEMPLATE + CALLERS_TEMPLATE).replace("{integrate}", integrate).replace("{outputs}", outputs)
+        template = template.replace("{velocity}", rolling_velocity).replace("{track}", track)
+        method = {"{method}": t.name, "{described}": f"with {t.name}", "{reset}": _RESETS["rolling"][0]}
+        steps.append(_fill(template, {**step_fields, **method}))
+    contact = _fill(
+        CONTACT_STEP_TEMPLATE + CALLERS_TEMPLATE,
+        {
+            "{roll}": _fill(CONTACT_ROLL, {"{rolling_checks}": _fill(CHECKS_TEMPLATE, rolling_checks)}),
+            "{hybrid}": _fill(CONTACT_HYBRID, {"{hybrid_checks}": _fill(CHECKS_TEMPLATE, hybrid_checks)}),
+            "{outputs}": outputs,
+        },
+    )
+    contact = contact.replace("{velocity}", contact_velocity).replace("{track}", track)
+    steps.append(_fill(contact, {**step_fields, "{method}": "contact", "{reset}": _RESETS["contact"][0]}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
@@ -1047,6 +1107,7 @@ import numpy as np
 from numba import cuda
 
 from rolling_disk_env import engine
+from rolling_disk_env.engine import SLIDES
 '''
 CUDA_STEP = '''
 
@@ -1058,7 +1119,42 @@ def {task}_step_{method}(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         {task}.step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            {task}.{reset}(np.int64(k), resets, batch, setup, out)
+            {task}.reset_share(np.int64(k), resets, batch, setup, out)
+'''
+"""A step kernel of the ``"rolling"`` contact, for one integrator."""
+CUDA_CONTACT_STEP = '''
+
+def {task}_step_contact(arguments):
+    """The rolling pass of a control period of disk k of task {task!r} under the "sliding" or "coulomb" contact
+    (``{task}.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`{task}_step_contact_hybrid`, the others end their step here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        {task}.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[7]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            {task}.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            if engine.device_step_ended(k, out, control, resets[0]):
+                {task}.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def {task}_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task {task!r} that :func:`{task}_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``{task}.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[7]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        {task}.contact_hybrid_share(k, batch, setup, out)
+        {task}.contact_outputs_share(k, batch, setup, out, resets)
+        if engine.device_step_ended(k, out, control, resets[0]):
+            {task}.reset_contact_share(k, resets, batch, setup, out)
 '''
 CUDA_RESET = '''
 
@@ -1083,16 +1179,19 @@ def cuda_methods() -> tuple[str, ...]:
 
 
 def generate_cuda(tasks) -> str:
-    """Source of ``_generated/cuda.py``: a step kernel a method (:func:`cuda_methods`) and a reset kernel a contact
-    family (:data:`CUDA_RESETS`), per task."""
+    """Source of ``_generated/cuda.py``: per task, a step kernel a rolling integrator, the two kernels of the step
+    under the ``"sliding"`` and ``"coulomb"`` contacts (:func:`cuda_methods`), and a reset kernel a contact family
+    (:data:`CUDA_RESETS`)."""
     names = sorted(tasks)
     source = CUDA_HEADER + "from rolling_disk_env._generated import " + ", ".join(names) + "\n"
     for task in names:
         for name, reset in CUDA_RESETS.items():
             source += CUDA_RESET.format(task=task, name=name, reset=reset)
         for method in cuda_methods():
-            reset = CUDA_RESETS["reset_contact" if method == "contact" else "reset"]
-            source += CUDA_STEP.format(task=task, method=method, reset=reset)
+            if method == "contact":
+                source += CUDA_CONTACT_STEP.format(task=task)
+            else:
+                source += CUDA_STEP.format(task=task, method=method)
     return source
 
 

@@ -240,6 +240,9 @@ class DeviceControl(NamedTuple):
             (SAME_STEP).
         final_mask: (N,) bool, the disks whose episode the step ended (SAME_STEP).
         mode: :data:`NEXT_STEP`, :data:`SAME_STEP` or :data:`DISABLED`.
+        queue: (N + 1,) int64, under the ``"sliding"`` and ``"coulomb"`` contacts: ``queue[0]`` disks that the step's
+            rolling pass left to the hybrid, ``queue[1:]`` those disks (in no set order), for the step's second kernel;
+            the count set to 0 by the check before each step.
     """
 
     status: np.ndarray
@@ -249,6 +252,7 @@ class DeviceControl(NamedTuple):
     final: tuple
     final_mask: np.ndarray
     mode: int
+    queue: np.ndarray
 
 
 @inline_kernel
@@ -270,7 +274,7 @@ def device_step_ended(k, out, control, mask) -> bool:
     ``control.final`` and its entry of the resets' ``mask`` set: returns True where the disk must start its next
     episode now (the kernel then resets it)."""
     observations, info, flags, codes = out
-    _, ended, rewards, dones, final, final_mask, mode = control
+    _, ended, rewards, dones, final, final_mask, mode, _ = control
     terminated, truncated = flags[TERMINATED, k, 0], flags[TRUNCATED, k, 0]
     rewards[k] = np.float32(info[REWARD, k, 0])
     dones[0, k], dones[1, k] = terminated, truncated

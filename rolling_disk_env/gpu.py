@@ -234,11 +234,14 @@ class Launch:
         return resolved
 
 
-def _check(actions, ended, disabled, status):
+def _check(actions, ended, disabled, status, queue):
     """Disk k's part of the check before a step (:attr:`DeviceBatch.status`): ``status[0]`` becomes the first disk
     whose action (a row of ``actions``) is not finite, and where ``disabled`` (DISABLED autoreset) ``status[1]`` the
-    first disk that has ended; both hold N before (none)."""
+    first disk that has ended; both hold N before (none). Thread 0 empties the hybrid's ``queue`` (its count,
+    :class:`~rolling_disk_env.engine.DeviceControl`) for the step that follows."""
     k = cuda.grid(1)
+    if k == 0:
+        queue[0] = 0
     if k < actions.shape[0]:
         for j in range(actions.shape[1]):
             if not math.isfinite(actions[k, j]):
@@ -263,8 +266,11 @@ class DeviceBatch(DiskBatch):
 
     A step is a copy of the actions into the batch's buffer, two launches (the check of the actions, then the step,
     which writes every output the env hands out, the same-step resets included) and one copy of the outputs that must
-    be fresh; the host then reads one status word (:meth:`step`). Its buffers are made once, and the kernels'
-    parameters resolved once (:class:`Launch`): nothing else crosses between host and device.
+    be fresh; the host then reads one status word (:meth:`step`). Under the ``"sliding"`` and ``"coulomb"`` contacts
+    the step is two kernels: every disk's rolling pass, which queues the disks that need the hybrid, then the hybrid
+    pass of the queued disks only, a thread each, so that a disk that slides holds up no warp of rolling disks. Its
+    buffers are made once, and the kernels' parameters resolved once (:class:`Launch`): nothing else crosses between
+    host and device.
 
     Args:
         config: the env's checked settings.
@@ -281,6 +287,8 @@ class DeviceBatch(DiskBatch):
         steps_tensor: (N,) int64, each disk's steps in its episode (it truncates at ``max_episode_steps``);
             writable.
         status: (2,) int64, the check's word (:class:`~rolling_disk_env.engine.DeviceControl`).
+        queue: (N + 1,) int64, the disks of the latest step's hybrid pass, after their count
+            (:class:`~rolling_disk_env.engine.DeviceControl`; ``"sliding"`` and ``"coulomb"`` contacts).
     Not picklable.
     """
 
@@ -290,9 +298,10 @@ class DeviceBatch(DiskBatch):
         self.choice = None
         self.device = torch_device()
         n, size = num_envs, self.observation_size
-        method = config.integrator if config.contact == "rolling" else "contact"
-        reset = "reset" if config.contact == "rolling" else "reset_contact"
-        self._kernels = (kernel(config.task.name, f"step_{method}"), kernel(config.task.name, reset), _jit(_check))
+        rolling, task = config.contact == "rolling", config.task.name
+        step = kernel(task, f"step_{config.integrator}" if rolling else "step_contact")
+        hybrid = None if rolling else kernel(task, "step_contact_hybrid")
+        self._kernels = (step, kernel(task, "reset" if rolling else "reset_contact"), _jit(_check), hybrid)
         self.mode = mode
         # What a step hands out fresh, in one block (one copy): the observations and rewards (float32), terminated and
         # truncated.
@@ -305,6 +314,7 @@ class DeviceBatch(DiskBatch):
         self.final_mask = torch.zeros(n, dtype=torch.bool, device=self.device)
         self.ended = torch.zeros(n, dtype=torch.bool, device=self.device)
         self.status = torch.full((2,), n, dtype=torch.int64, device=self.device)
+        self.queue = torch.zeros(n + 1, dtype=torch.int64, device=self.device)
         self.actions = torch.zeros((n, config.action_space.shape[0]), dtype=torch.float32, device=self.device)
         self.mask = torch.zeros(n, dtype=torch.bool, device=self.device)
         self.given = torch.full((n, GIVEN_SIZE), math.nan, dtype=torch.float64, device=self.device)
@@ -350,8 +360,9 @@ class DeviceBatch(DiskBatch):
         steps = self._device[0][2]
         return (torch.from_numpy(steps) if SIMULATED else torch.as_tensor(steps, device=self.device)).view(-1)
 
-    def _prepared(self) -> tuple[Launch, Launch, Launch]:
-        """The launches of the step, the reset and the check, with the arguments of :class:`DeviceBatch`'s buffers."""
+    def _prepared(self) -> tuple[Launch, Launch, Launch, Launch | None]:
+        """The launches of the step, the reset, the check and the step's hybrid pass (None under the ``"rolling"``
+        contact), with the arguments of :class:`DeviceBatch`'s buffers."""
         if self._launches is None:
             n = self.num_envs
             out = tuple(view(array) for array in self.out.shares)
@@ -359,14 +370,16 @@ class DeviceBatch(DiskBatch):
             resets = (view(self.mask), self.rngs, self._uniforms, view(self.given))
             control = (
                 view(self.status), view(self.ended), view(self.rewards), view(self.dones), final,
-                view(self.final_mask), self.mode,
+                view(self.final_mask), self.mode, view(self.queue),
             )  # fmt: skip
-            step, reset, check = self._kernels
+            step, reset, check, hybrid = self._kernels
             actions, disabled = view(self.actions), self.mode == engine.DISABLED
+            arguments = ((actions, *self._device, out, resets, control),)
             self._launches = (
-                Launch(step, n, ((actions, *self._device, out, resets, control),)),
+                Launch(step, n, arguments),
                 Launch(reset, n, ((resets, *self._device, out),)),
-                Launch(check, n, (actions, view(self.ended), disabled, view(self.status))),
+                Launch(check, n, (actions, view(self.ended), disabled, view(self.status), view(self.queue))),
+                None if hybrid is None else Launch(hybrid, n, arguments),
             )
         return self._launches
 
@@ -438,10 +451,12 @@ class DeviceBatch(DiskBatch):
             truncated (2, N) bool; the first disk whose action is not finite, and the first disk that had ended under
             DISABLED (-1: none; where either is not, nothing was stepped and the returned tensors are meaningless).
         """
-        step, _, check = self._prepared()
+        step, _, check, hybrid = self._prepared()
         self.actions.copy_(actions)
         check()
         step()
+        if hybrid is not None:
+            hybrid()
         fresh = self._fresh_views(self._fresh.clone())
         bad, ended = self._read_status()
         n = self.num_envs

@@ -99,9 +99,9 @@ def test_tensors_live_on_the_gpu_and_actions_on_the_cpu_are_moved_there():
 
 def _forced(num_envs: int, steps: int, mode=AutoresetMode.NEXT_STEP, **kwargs):
     """Steps the GPU env and the numpy vector env under the same random actions, the GPU batch set to the CPU's
-    state (lanes, goals, step counts, ended flags, PCG64 states) before each step: yields the step's results of both,
-    so that each step is compared from the same state (a chaotic fall or a stick-slip switch cannot carry a rounding
-    difference from one step into the next)."""
+    state (lanes, goals, step counts, ended flags, PCG64 states) before each step: yields the step's results of both
+    and the GPU's batch, so that each step is compared from the same state (a chaotic fall or a stick-slip switch
+    cannot carry a rounding difference from one step into the next)."""
     ours, theirs = make(num_envs, mode, "cuda", **kwargs), make(num_envs, mode, **kwargs)
     ours.reset(seed=11)
     theirs.reset(seed=11)
@@ -112,7 +112,7 @@ def _forced(num_envs: int, steps: int, mode=AutoresetMode.NEXT_STEP, **kwargs):
         device.ended.copy_(torch.from_numpy(cpu._ended))
         device.seed(cpu._rngs, np.ones(num_envs, dtype=bool))
         actions = rng.uniform(-1.5, 1.5, theirs.action_space.shape).astype(np.float32)
-        yield step, ours.step(torch.from_numpy(actions).to(device.device)), theirs.step(actions)
+        yield step, ours.step(torch.from_numpy(actions).to(device.device)), theirs.step(actions), device
 
 
 @pytest.mark.parametrize(
@@ -122,7 +122,7 @@ def _forced(num_envs: int, steps: int, mode=AutoresetMode.NEXT_STEP, **kwargs):
 )
 def test_each_step_from_the_cpu_state_follows_the_cpu(kwargs):
     """Teacher-forced: every step starts from the CPU's state, so the outputs agree within the rounding of one step."""
-    for step, got, want in _forced(48, 100, **kwargs):
+    for step, got, want, _ in _forced(48, 100, **kwargs):
         for index in range(4):
             expected = want[index].astype(np.float32) if index == 1 else want[index]
             _assert_close(got[index], expected, RTOL, f"step {step} output {index}")
@@ -132,7 +132,7 @@ def test_each_step_from_the_cpu_state_follows_the_cpu(kwargs):
 def test_same_step_autoreset_on_the_device_keeps_the_last_outputs():
     """SAME_STEP in one launch: the kernel keeps each ending disk's last observation and info before resetting it."""
     ended = 0
-    for step, got, want in _forced(32, 90, AutoresetMode.SAME_STEP, task="goto"):
+    for step, got, want, _ in _forced(32, 90, AutoresetMode.SAME_STEP, task="goto"):
         _assert_infos_close(got[4], want[4], RTOL, f"step {step}")
         ended += int(np.asarray(want[4].get("_final_obs", np.zeros(1, bool))).sum())
     assert ended >= 16, f"only {ended} episodes ended"
@@ -152,6 +152,22 @@ def test_a_seed_gives_the_same_bits_run_after_run():
         runs.append(outputs)
     for first, second in zip(*runs):
         np.testing.assert_array_equal(first, second)
+
+
+def test_the_hybrid_pass_takes_exactly_the_disks_the_rolling_pass_marked():
+    """Coulomb on the device: the step's first kernel queues the disks that slide or need more friction than mu (each
+    once, the count first), the second runs the hybrid on those only; the disks left out roll, as the CPU's step has
+    them (teacher-forced: same state, same actions)."""
+    queued_in_all, sliding_in_all = 0, 0
+    for step, got, want, device in _forced(64, 40, task="circle", contact="coulomb", friction_coefficient=0.1):
+        _assert_infos_close(got[4], want[4], RTOL, f"step {step}")
+        queue = device.queue.cpu().numpy()
+        queued = queue[1 : 1 + queue[0]]
+        assert len(set(queued.tolist())) == len(queued) and np.all((0 <= queued) & (queued < 64))
+        sliding = np.flatnonzero(want[4]["sliding"])
+        assert set(sliding.tolist()) <= set(queued.tolist()), f"step {step}: a sliding disk was not queued"
+        queued_in_all, sliding_in_all = queued_in_all + len(queued), sliding_in_all + len(sliding)
+    assert 0 < sliding_in_all <= queued_in_all < 40 * 64, (sliding_in_all, queued_in_all)
 
 
 class _Crossings:
@@ -181,10 +197,11 @@ class _Crossings:
 
 @pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda mode: mode.value)
 @pytest.mark.parametrize("contact", ["rolling", "coulomb"])
-def test_a_step_crosses_nothing_but_its_two_launches(monkeypatch, contact, mode):
-    """A step on the device: the check and the step launched through their prepared launches, no copy to or from the
-    device through the package, no read of a tensor on the host (the status word is read from pinned memory); a
-    reset by a mask on the device likewise launches once and copies nothing."""
+def test_a_step_crosses_nothing_but_its_launches(monkeypatch, contact, mode):
+    """A step on the device: the check and the step (under Coulomb: its rolling and hybrid passes) launched through
+    their prepared launches, no copy to or from the device through the package, no read of a tensor on the host (the
+    status word is read from pinned memory); a reset by a mask on the device likewise launches once and copies
+    nothing."""
     envs = make(16, mode, "cuda", task="goto", **CONTACTS[contact])
     observations, _ = envs.reset(seed=0)
     actions = torch.zeros((16, 2), device=observations.device)
@@ -193,7 +210,7 @@ def test_a_step_crosses_nothing_but_its_two_launches(monkeypatch, contact, mode)
     crossings.on = True
     for _ in range(3):
         envs.step(actions)
-    assert crossings.counts == {"Launch": 6}
+    assert crossings.counts == {"Launch": 3 * (2 if contact == "rolling" else 3)}
     crossings.counts.clear()
     envs.reset(options={"reset_mask": torch.arange(16, device=observations.device) % 3 == 0})
     assert crossings.counts == {"Launch": 1}

@@ -52,6 +52,7 @@ def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
         final=batch.outputs().shares,
         final_mask=np.zeros(num_envs, bool),
         mode=rd.engine.SAME_STEP,
+        queue=np.zeros(num_envs + 1, np.int64),
     )
     return actions, arrays, tuple(batch.setup), out, resets, tuple(control)
 
@@ -59,13 +60,13 @@ def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
 KERNELS = [
     (task, name)
     for task in sorted(rd.TASK_IDS)
-    for name in (*codegen.CUDA_RESETS, *(f"step_{m}" for m in codegen.cuda_methods()))
+    for name in (*codegen.CUDA_RESETS, *(f"step_{m}" for m in codegen.cuda_methods()), "step_contact_hybrid")
 ]
 
 
 @pytest.mark.parametrize(("task", "name"), KERNELS, ids=[f"{task}_{name}" for task, name in KERNELS])
 def test_every_kernel_builds_for_sm_90(task, name, monkeypatch):
-    contact = {"contact": "coulomb", "friction_coefficient": 0.2} if name.endswith("contact") else {}
+    contact = {"contact": "coulomb", "friction_coefficient": 0.2} if "contact" in name else {}
     config = EnvConfig.from_kwargs(task=task, **contact)
     arguments = _arguments(config, name)
     # numba-cuda asks the current device for its compute capability where a kernel calls a CPU-compiled function;
@@ -77,7 +78,7 @@ def test_every_kernel_builds_for_sm_90(task, name, monkeypatch):
 
 def test_the_check_and_the_seeding_build_for_sm_90(monkeypatch):
     monkeypatch.setattr(numba.cuda.dispatcher, "get_current_device", lambda: SimpleNamespace(compute_capability=H100))
-    check = (numba.float32[:, ::1], numba.boolean[::1], numba.boolean, numba.int64[::1])
+    check = (numba.float32[:, ::1], numba.boolean[::1], numba.boolean, numba.int64[::1], numba.int64[::1])
     seed = (numba.types.Tuple((numba.uint64, numba.uint64, numba.boolean[::1], numba.uint64[:, ::1])),)
     for function, types in ((gpu._check, check), (gpu._seed, seed)):
         ptx, _ = cuda.compile_ptx(function, types, cc=H100)

@@ -786,25 +786,17 @@ def step_dopri5_threads(actions, arrays, out, stepping):
 
 
 @kernel
-def step_contact_share(k, actions, batch, setup, out, resets):
-    """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch: the action's torques, then, in loops
-    over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_contact_share`, while the share's rows are in cache: its action is ignored).
-
-    ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
-    :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
-    last split into shares, ``[row, k, i]`` for disk i of share k (``[k, i]`` for ``steps``, ``[k, i, j]`` for
-    ``observations``). The loop runs over a whole share, padding included (``rolling_disk_env.envs.batch``): numba
-    addresses a C-contiguous array through its shape, so the compiler sees that the rows the loop reads and writes do
-    not overlap. The settings it needs are read before the loop: a read of an array under a condition inside the loop
-    (a masked load) keeps it from vectorizing on AVX2."""
+def contact_roll_share(k, actions, batch, setup, out):
+    """The rolling pass of a control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of
+    share k: the action's torques, then the substeps of the rolling model and each disk's checks at the end of the
+    period, in loops over the disks that the compiler vectorizes; each disk marked (lanes row SLIDES) where it slides
+    or its contact needs more friction than mu, for :func:`contact_hybrid_share`. The arrays as :func:`step_rk4_share`
+    takes them."""
     lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1], settings[2], settings[3])
-    friction, max_steps = config[FRICTION], np.int64(config[MAX_STEPS])
-    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]
+    friction = config[FRICTION]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
@@ -863,6 +855,19 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         lanes[SLIDES, k, i] = 0.0 if held else 1.0
         info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = dc1, dc2
         info[CONTACT_ROWS + 2, k, i] = info[CONTACT_ROWS + 3, k, i] = info[CONTACT_ROWS + 4, k, i] = 0.0
+
+
+@kernel
+def contact_hybrid_share(k, batch, setup, out):
+    """The hybrid pass of a control period under the "sliding" or "coulomb" contact: the disks of share k that
+    :func:`contact_roll_share` marked go through the period again from its start, one by one, switching modes
+    (``engine.advance_contact``). A disk that rolls on gets the same arithmetic either way."""
+    lanes, goals, steps = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags, codes = out
+    settings = (settings[0], settings[1], settings[2], settings[3])
+    friction = config[FRICTION]
+    period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
     # The disks marked: the period again, from its start, under the hybrid (a scalar loop: the modes branch).
     for i in range(lanes.shape[2]):
         if lanes[SLIDES, k, i] == 0.0:
@@ -901,6 +906,19 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
         info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
         info[CONTACT_ROWS + 4, k, i] = contact[7]
+
+
+@kernel
+def contact_outputs_share(k, batch, setup, out, resets):
+    """The end of a control period under the "sliding" or "coulomb" contact, once both passes are done: each disk's
+    reward terms, observation and flags; then a new episode in each disk of the mask of ``resets``
+    (:func:`reset_contact_share`)."""
+    lanes, goals, steps = batch
+    config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
+    observations, info, flags, codes = out
+    settings = (settings[0], settings[1], settings[2], settings[3])
+    max_steps = np.int64(config[MAX_STEPS])
+    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]
     # The reward terms, the observation and the flags in a loop of their own: fewer live values in each loop
     # (`goto`'s step compiled for AVX2, N = 4096, one thread: 42.0 ns a disk against 44.0 in one loop).
     for i in range(lanes.shape[2]):
@@ -934,6 +952,17 @@ def step_contact_share(k, actions, batch, setup, out, resets):
         flags[SUCCESS, k, i] = (code == RUNNING) & within
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
     reset_contact_share(k, resets, batch, setup, out)
+
+
+@kernel
+def step_contact_share(k, actions, batch, setup, out, resets):
+    """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
+    its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
+    (:func:`contact_outputs_share`). A GPU runs the three passes as two kernels, so that the disks that slide run the
+    hybrid together (``_generated/cuda.py``)."""
+    contact_roll_share(k, actions, batch, setup, out)
+    contact_hybrid_share(k, batch, setup, out)
+    contact_outputs_share(k, batch, setup, out, resets)
 
 
 @kernel

@@ -18,6 +18,7 @@ import numpy as np
 from numba import cuda
 
 from rolling_disk_env import engine
+from rolling_disk_env.engine import SLIDES
 from rolling_disk_env._generated import circle, goto, upright
 
 
@@ -82,14 +83,36 @@ def circle_step_dopri5(arguments):
 
 
 def circle_step_contact(arguments):
-    """One control period of disk k of task 'circle' (``circle.step_contact_share``), its autoreset decided on the
-    device."""
+    """The rolling pass of a control period of disk k of task 'circle' under the "sliding" or "coulomb" contact
+    (``circle.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`circle_step_contact_hybrid`, the others end their step here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        circle.step_contact_share(np.int64(k), actions, batch, setup, out, resets)
+        circle.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[7]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            circle.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            if engine.device_step_ended(k, out, control, resets[0]):
+                circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def circle_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task 'circle' that :func:`circle_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``circle.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[7]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        circle.contact_hybrid_share(k, batch, setup, out)
+        circle.contact_outputs_share(k, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            circle.reset_contact_share(k, resets, batch, setup, out)
 
 
 def goto_reset(arguments):
@@ -153,14 +176,36 @@ def goto_step_dopri5(arguments):
 
 
 def goto_step_contact(arguments):
-    """One control period of disk k of task 'goto' (``goto.step_contact_share``), its autoreset decided on the
-    device."""
+    """The rolling pass of a control period of disk k of task 'goto' under the "sliding" or "coulomb" contact
+    (``goto.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`goto_step_contact_hybrid`, the others end their step here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        goto.step_contact_share(np.int64(k), actions, batch, setup, out, resets)
+        goto.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[7]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            goto.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            if engine.device_step_ended(k, out, control, resets[0]):
+                goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def goto_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task 'goto' that :func:`goto_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``goto.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[7]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        goto.contact_hybrid_share(k, batch, setup, out)
+        goto.contact_outputs_share(k, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            goto.reset_contact_share(k, resets, batch, setup, out)
 
 
 def upright_reset(arguments):
@@ -224,11 +269,33 @@ def upright_step_dopri5(arguments):
 
 
 def upright_step_contact(arguments):
-    """One control period of disk k of task 'upright' (``upright.step_contact_share``), its autoreset decided on the
-    device."""
+    """The rolling pass of a control period of disk k of task 'upright' under the "sliding" or "coulomb" contact
+    (``upright.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`upright_step_contact_hybrid`, the others end their step here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        upright.step_contact_share(np.int64(k), actions, batch, setup, out, resets)
+        upright.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[7]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            upright.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            if engine.device_step_ended(k, out, control, resets[0]):
+                upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def upright_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task 'upright' that :func:`upright_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``upright.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[7]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        upright.contact_hybrid_share(k, batch, setup, out)
+        upright.contact_outputs_share(k, batch, setup, out, resets)
         if engine.device_step_ended(k, out, control, resets[0]):
-            upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            upright.reset_contact_share(k, resets, batch, setup, out)
