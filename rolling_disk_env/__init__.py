@@ -1,7 +1,8 @@
 """rolling-disk-env: a disk rolling without slipping on a plane (L. Jaulin's SymPy model) as a Gymnasium env.
 
 Importing the package registers ``"RollingDisk-v0"`` and one id per task (:data:`TASK_IDS`) with Gymnasium
-(idempotently, so that ``SubprocVecEnv`` children, which import it again, find the ids).
+(idempotently, so that ``SubprocVecEnv`` children, which import it again, find the ids), and ``"RollingDiskJax-v0"``
+(:data:`JAX_ID`, the tasks in JAX, with the ``[jax]`` extra).
 
 It imports neither SymPy nor numba nor torch: the envs (and with them the compiled engine) load on first use, through
 ``gymnasium.make`` or the attributes ``RollingDiskEnv``, ``RollingDiskVectorEnv`` and ``Termination``, and the
@@ -49,6 +50,9 @@ TASK_SPECS = (
 """One id per task, with the task fixed: ``(task, id, reward_threshold)``. A new task's id is one more line."""
 TASK_IDS = {task: env_id for task, env_id, _ in TASK_SPECS}
 """The id of each task (the ids rl-baselines3-zoo's hyperparameter files are keyed by)."""
+JAX_ID = "RollingDiskJax-v0"
+"""The tasks in JAX through Gymnasium's functional API (``task=`` chooses; needs the ``[jax]`` extra):
+:mod:`rolling_disk_env.jax.functional`."""
 
 
 def _register() -> None:
@@ -64,6 +68,14 @@ def _register() -> None:
                 reward_threshold=threshold,
                 kwargs=kwargs,
             )
+    if JAX_ID not in registry:
+        register(
+            id=JAX_ID,
+            entry_point="rolling_disk_env.jax.functional:RollingDiskJaxEnv",
+            vector_entry_point="rolling_disk_env.jax.functional:RollingDiskJaxVectorEnv",
+            max_episode_steps=MAX_EPISODE_STEPS,
+            disable_env_checker=True,  # its observations are JAX arrays, as Gymnasium's phys2d ids' (which do so)
+        )
 
 
 _register()

@@ -22,6 +22,7 @@ import rolling_disk_env as rd
 from rolling_disk_env import engine
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.jax import make, traced
+from rolling_disk_env.jax.functional import RollingDiskFunctional
 
 jax.config.update("jax_enable_x64", True)
 
@@ -279,6 +280,65 @@ def test_vmap_over_disks_of_different_sizes():
         np.testing.assert_allclose(np.asarray(states[i]), reference.step(np.ones(2, np.float32))[4]["state"], rtol=RTOL)
 
 
+@pytest.mark.parametrize("task", TASKS)
+def test_gymnasium_functional_env_steps_as_the_gymnax_env(task):
+    """gym.make("RollingDiskJax-v0"): Gymnasium's FunctionalJaxEnv over the gymnax step, its keys split as Gymnasium
+    splits them: the same observations, rewards, flags and info (jitted against not: within 1e-14), with
+    RollingDisk-v0's info keys."""
+    env = gym.make(rd.JAX_ID, task=task)
+    gymnax_env, params = make(task)
+    observation, info = env.reset(seed=3)
+    key = jax.random.PRNGKey(3)
+    now, key = jax.random.split(key)
+    expected, state = gymnax_env.reset_env(now, params)
+    np.testing.assert_array_equal(np.asarray(observation), np.asarray(expected))
+    assert info == {}
+    reference = numba_env(task)
+    reference.reset(seed=0)
+    numba_keys = set(reference.step(np.zeros(2, np.float32))[4])
+    rng = np.random.default_rng(4)
+    for _ in range(40):
+        action = rng.uniform(-1, 1, 2).astype(np.float32)
+        observation, reward, terminated, truncated, info = env.step(action)
+        now, key = jax.random.split(key)
+        expected, state, expected_reward, expected_terminated, expected_info = gymnax_env.step_env(
+            now, state, jnp.asarray(action), params
+        )
+        np.testing.assert_allclose(np.asarray(observation), np.asarray(expected), rtol=1e-6, atol=1e-7)  # float32
+        np.testing.assert_allclose(reward, float(expected_reward), rtol=1e-14, atol=1e-15)
+        assert terminated == bool(expected_terminated) and not truncated
+        assert set(info) == numba_keys
+        for name, value in info.items():
+            expected_value = np.asarray(expected_info[name])
+            np.testing.assert_allclose(np.asarray(value), expected_value, rtol=1e-14, atol=1e-14, err_msg=name)
+            assert np.asarray(value).dtype.kind == expected_value.dtype.kind, name
+        if terminated:
+            break
+
+
+def test_gymnasium_functional_vector_env_truncates_and_resets():
+    """gym.make_vec("RollingDiskJax-v0", vectorization_mode="vector_entry_point"): vmapped disks that truncate at
+    max_episode_steps and start again at the next step; each disk's step is the single disk's."""
+    envs = gym.make_vec(rd.JAX_ID, 8, vectorization_mode="vector_entry_point", task="goto", max_episode_steps=5)
+    single = RollingDiskFunctional("goto")
+    observation, _ = envs.reset(seed=0)
+    assert observation.shape == (8, *envs.single_observation_space.shape)
+    for t in range(6):
+        actions = np.full((8, 2), 0.3, np.float32)
+        before = envs.unwrapped.state
+        observation, reward, terminated, truncated, info = envs.step(actions)
+        if t < 5:
+            assert np.all(np.asarray(truncated) == (t == 4)) and not np.any(np.asarray(terminated))
+            after = envs.unwrapped.state
+            for i in (0, 7):  # each disk as one (jax.vmap against the single function, unjitted)
+                stepped = single.transition(before[i], jnp.asarray(actions[i]), None)
+                np.testing.assert_allclose(np.asarray(after[i]), np.asarray(stepped), rtol=1e-14, atol=1e-15)
+        else:  # the step after the truncation starts new episodes (next-step autoreset)
+            assert not np.any(np.asarray(truncated)) and not np.any(np.asarray(terminated))
+            assert np.all(np.asarray(envs.unwrapped.state)[:, single.layout["time"]] == 0)
+        assert np.asarray(info["state"]).shape == (8, 8) and np.asarray(reward).shape == (8,)
+
+
 def test_float32_where_x64_is_off():
     """With jax_enable_x64 off, the env computes in float32, within float32's round-off of the engine."""
     reference = numba_env("upright")
@@ -315,7 +375,7 @@ def test_the_manuals_examples_run(tmp_path):
 
     root = Path(__file__).resolve().parents[1]
     blocks = re.findall(r"^```py\n(.*?)^```$", (root / "docs" / "jax.md").read_text(), re.MULTILINE | re.DOTALL)
-    assert len(blocks) == 2
+    assert len(blocks) == 3
     outputs = []
     for code in blocks:
         script = tmp_path / "snippet.py"
@@ -330,6 +390,7 @@ def test_the_manuals_examples_run(tmp_path):
         )
         assert result.returncode == 0, result.stderr
         outputs.append(result.stdout)
-    final_lean = float(re.search(r"final lean ([\d.]+) rad", outputs[1]).group(1))
+    assert outputs[1].split() == ["(256,", "7)", "[]"]  # the Gymnasium way
+    final_lean = float(re.search(r"final lean ([\d.]+) rad", outputs[2]).group(1))
     assert abs(final_lean - 0.2) < 0.01
     assert (tmp_path / "jax_gradient.png").stat().st_size > 0
