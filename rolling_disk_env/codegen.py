@@ -780,8 +780,8 @@ def step_{method}_threads(actions, arrays, out, stepping):
             step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 """
-"""The callers of a share's step, for a batch of disks: on the calling thread, and on numba's threads; both also only
-reset."""
+"""The callers of a share's step, for a batch of disks: on the calling thread, and on numba's threads; each, when not
+stepping, only starts the episodes of the resets' mask."""
 
 RESET_TEMPLATE = """
 
