@@ -446,6 +446,14 @@ def lean_advance_adaptive(y, period, h, tau_spin, tau_steer, m, g, r, rtol, atol
     return y, h, t >= period
 
 
+NEWTON_STEPS = 12
+"""Newton steps :func:`steady_circle` allows. From its start its iteration converges monotonically and quadratically:
+over 400,000 circles drawn log-uniformly from 0.05 m to 10 km in radius and 1 mm/s to 1 km/s in speed, those of the
+model's domain took at most 6 steps to converge to 1e-15, the ``circle`` task's 3 or 4. JAX reads the loop as this
+many unrolled copies (:mod:`rolling_disk_env.jax.reading`), which the JAX env evaluates at every step (gymnax computes
+a reset with each step for its autoreset)."""
+
+
 @kernel
 def steady_circle(radius, speed, g, r):
     """The steady circle of the centre path of ``radius`` (m) at ``speed`` (m/s), counter-clockwise:
@@ -460,7 +468,7 @@ def steady_circle(radius, speed, g, r):
     # from any point right of the root, such as (b + c) / a, where excess >= 0. Its steps take a square root, not
     # the three libm calls of a step in theta (the reset of every circle episode solves it).
     t = (b + c) / a
-    for _ in range(50):
+    for _ in range(NEWTON_STEPS):
         secant = math.sqrt(1.0 + t * t)
         step = (a * t - b * t / secant - c) / (a - b / (secant * secant * secant))
         t -= step

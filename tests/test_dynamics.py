@@ -1,6 +1,8 @@
 """Physics of the numeric model, checked against independent computations (tests/reference.py) and analytic
 steady motions of the paper."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -102,6 +104,28 @@ def test_case3_steady_circle_holds_lean_and_radius():
     np.testing.assert_allclose(distance, radius, atol=1e-6)
     np.testing.assert_allclose(trajectory[:, 3], theta, atol=1e-6)
     np.testing.assert_allclose(trajectory[:, 4], dpsi * times, atol=1e-6)
+
+
+def test_the_engines_steady_circles_converge_within_its_newton_steps():
+    """engine.steady_circle's Newton iteration (at most engine.NEWTON_STEPS steps) lands on the steady circle over
+    five decades of radius and six of speed: the model's ddtheta, from the derivation, is zero there to round-off, and
+    the centre path's radius is the one asked for."""
+    from rolling_disk_env import engine
+
+    rng = np.random.default_rng(7)
+    radii = np.exp(rng.uniform(np.log(0.05), np.log(1e4), 4000))
+    speeds = np.exp(rng.uniform(np.log(1e-3), np.log(1e3), 4000))
+    solved = 0
+    for radius, speed in zip(radii, speeds, strict=True):
+        theta, dphi, dpsi = engine.steady_circle(radius, speed, 9.81, 1.0)
+        if math.isnan(theta):
+            continue
+        solved += 1
+        x = np.array([0, 0, 0, theta, 0, dphi, 0, dpsi])
+        scale = dpsi * dpsi + abs(dphi * dpsi) + 9.81
+        assert abs(rd.state_derivative(x)[6]) <= 1e-12 * scale, (radius, speed)
+        assert PARAMS.radius * (dphi - dpsi * math.sin(theta)) / dpsi == pytest.approx(radius, rel=1e-12)
+    assert solved > 1000
 
 
 def test_circle_condition_is_the_zero_of_ddtheta():

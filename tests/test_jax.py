@@ -76,10 +76,10 @@ def test_lean_jacobians_equal_the_derived_ones():
 
 
 def test_steady_circle_newton_iteration_reads_as_the_engines():
-    """The JAX reading of engine.steady_circle, a Newton iteration that breaks when it has converged (read as its 50
-    steps, each holding the solution once converged), gives the engine's steady circles vmapped over radii from
-    0.05 m to 10 km, within 1e-14 (the two libraries' atan), with NaN where neither has one; a loop whose body
-    branches has no reading."""
+    """The JAX reading of engine.steady_circle, a Newton iteration that breaks when it has converged (read as its
+    engine.NEWTON_STEPS steps, each holding the solution once converged), gives the engine's steady circles vmapped
+    over radii from 0.05 m to 10 km, within 1e-14 (the two libraries' atan), with NaN where neither has one; a loop
+    whose body branches has no reading."""
     solve = traced(engine.steady_circle)
     radii = np.concatenate([np.geomspace(0.05, 1e4, 500), np.linspace(3.0, 6.0, 100)])
     got = np.asarray(jax.jit(jax.vmap(lambda radius: jnp.stack(solve(radius, 2.0, 9.81, 1.0))))(radii))
