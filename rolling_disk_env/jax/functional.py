@@ -6,8 +6,8 @@ Gymnasium env of them, jitted (the vector one also vmapped over the disks), whos
 :class:`RollingDiskFunctional` is that ``FuncEnv`` over :class:`~rolling_disk_env.jax.env.RollingDiskJax`'s step, the
 same kernels, with nothing computed twice: its state is one array a disk (Gymnasium's vector env starts episodes with
 ``state.at[disks].set(...)``, an array's method), holding the gymnax state's fields and then the step's reward,
-termination code and ``info`` values (:data:`LAYOUT`), so that ``reward``, ``terminal`` and the step's info read what
-``transition`` computed.
+termination code and ``info`` values (:attr:`RollingDiskFunctional.layout`), so that ``reward``, ``terminal`` and
+the step's info read what ``transition`` computed.
 
 What differs from ``RollingDisk-v0``: observations, rewards and info are JAX arrays; the reset's info is empty; no
 rendering; the tasks' scope in JAX (the ``"rolling"`` contact, the fixed-step integrators: ValueError otherwise).
@@ -44,7 +44,10 @@ class RollingDiskFunctional(FuncEnv):
 
     Attributes:
         gymnax: the :class:`RollingDiskJax` whose step this is.
-        layout: where each part of the state array lies (:data:`LAYOUT` order): name -> slice.
+        layout: where each part of a disk's state array lies, name -> slice: ``x``, ``goal``, ``success``,
+            ``tracking_sum``, ``tracking_weight``, ``time`` (the gymnax state), then the latest step's ``reward`` and
+            ``termination`` code and the info values of :data:`REPORTED` and the reward ``terms``.
+        size: the length of a disk's state array.
     """
 
     def __init__(self, task: str = "upright", **kwargs: Any):
