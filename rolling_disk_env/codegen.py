@@ -665,7 +665,7 @@ that :data:`CONTACT_ROLL` marked go through the period again from its start, swi
 
 STEP_TEMPLATE = """
 
-@kernel
+@share_kernel
 def step_{method}_share(k, actions, batch, setup, out, resets):
     \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -731,7 +731,7 @@ def contact_outputs_share(k, batch, setup, out, resets):
     reset_contact_share(k, resets, batch, setup, out)
 
 
-@kernel
+@share_kernel
 def step_contact_share(k, actions, batch, setup, out, resets):
     \"\"\"One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
     its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
@@ -1011,7 +1011,7 @@ def generate_steps(task) -> str:
             "    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,",
             "    TRACKING_WEIGHT, TRUNCATED,",
             ")",
-            "from rolling_disk_env.jit import kernel, parallel_kernel, prange",
+            "from rolling_disk_env.jit import kernel, parallel_kernel, prange, share_kernel",
             f"import {module.__name__} as task",
             "",
             f'TASK_SOURCE = "{task.source_hash()}"',

@@ -122,6 +122,14 @@ the disks, where a call left in the loop would keep it from vectorizing (LLVM's 
 the tasks' reward terms and the integrators' steps, as calls). Numba's own inlining (``inline="always"``, which
 copies the callee's IR into each caller before typing it) gave the same results to the last bit and no faster steps,
 but took about 60% of a step's compile time (``docs/performance/history.md``, ``benchmarks/results/compile.md``)."""
+share_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", inline="always")
+"""Compiles a share's step only as part of the functions that call it (numba copies its code into each caller
+before typing it: ``inline="always"``), not as a function of its own. A step's callers, serial and threaded, are
+thin: numba compiles a function called from another on its own, then links its code into the caller and optimizes
+and compiles it again there, so a share compiled on its own was optimized twice in each configuration; inlined,
+once (``upright``'s single env, cold: 20.2 s against 15.8 s to its first step,
+``benchmarks/results/compile.md``). The same machine code for the share's loops, and the same results to the last
+bit. For a per-disk body called many times, numba's inlining costs more than it saves (:data:`inline_kernel`)."""
 parallel_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", parallel=True)
 """Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""
 prange = numba.prange

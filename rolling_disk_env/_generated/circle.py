@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
     SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,
     TRACKING_WEIGHT, TRUNCATED,
 )
-from rolling_disk_env.jit import kernel, parallel_kernel, prange
+from rolling_disk_env.jit import kernel, parallel_kernel, prange, share_kernel
 import rolling_disk_env.tasks.circle as task
 
 TASK_SOURCE = "39b69a8d2f05e8a30377af5ee51b7dccaae867ad51c6d533a6f7ccc286ea16c0"
@@ -186,7 +186,7 @@ def reset_contact_share(k, resets, batch, setup, out):
         info[CONTACT_ROWS + 4, k, i] = contact[7]
 
 
-@kernel
+@share_kernel
 def step_euler_share(k, actions, batch, setup, out, resets):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -341,7 +341,7 @@ def step_euler_threads(actions, arrays, out, stepping):
     return bad
 
 
-@kernel
+@share_kernel
 def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -496,7 +496,7 @@ def step_symplectic_euler_threads(actions, arrays, out, stepping):
     return bad
 
 
-@kernel
+@share_kernel
 def step_rk4_share(k, actions, batch, setup, out, resets):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -651,7 +651,7 @@ def step_rk4_threads(actions, arrays, out, stepping):
     return bad
 
 
-@kernel
+@share_kernel
 def step_dopri5_share(k, actions, batch, setup, out, resets):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -954,7 +954,7 @@ def contact_outputs_share(k, batch, setup, out, resets):
     reset_contact_share(k, resets, batch, setup, out)
 
 
-@kernel
+@share_kernel
 def step_contact_share(k, actions, batch, setup, out, resets):
     """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
     its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs

@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
     SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,
     TRACKING_WEIGHT, TRUNCATED,
 )
-from rolling_disk_env.jit import kernel, parallel_kernel, prange
+from rolling_disk_env.jit import kernel, parallel_kernel, prange, share_kernel
 import rolling_disk_env.tasks.goto as task
 
 TASK_SOURCE = "9d60397811d39c7caa43b77b900dba63e34fa2ddc768239344a531069c122e50"
@@ -186,7 +186,7 @@ def reset_contact_share(k, resets, batch, setup, out):
         info[CONTACT_ROWS + 4, k, i] = contact[7]
 
 
-@kernel
+@share_kernel
 def step_euler_share(k, actions, batch, setup, out, resets):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -336,7 +336,7 @@ def step_euler_threads(actions, arrays, out, stepping):
     return bad
 
 
-@kernel
+@share_kernel
 def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -486,7 +486,7 @@ def step_symplectic_euler_threads(actions, arrays, out, stepping):
     return bad
 
 
-@kernel
+@share_kernel
 def step_rk4_share(k, actions, batch, setup, out, resets):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -636,7 +636,7 @@ def step_rk4_threads(actions, arrays, out, stepping):
     return bad
 
 
-@kernel
+@share_kernel
 def step_dopri5_share(k, actions, batch, setup, out, resets):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -929,7 +929,7 @@ def contact_outputs_share(k, batch, setup, out, resets):
     reset_contact_share(k, resets, batch, setup, out)
 
 
-@kernel
+@share_kernel
 def step_contact_share(k, actions, batch, setup, out, resets):
     """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
     its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
