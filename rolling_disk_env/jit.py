@@ -127,9 +127,10 @@ share_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy"
 before typing it: ``inline="always"``), not as a function of its own. A step's callers, serial and threaded, are
 thin: numba compiles a function called from another on its own, then links its code into the caller and optimizes
 and compiles it again there, so a share compiled on its own was optimized twice in each configuration; inlined,
-once (``upright``'s single env, cold: 20.2 s against 15.8 s to its first step,
-``benchmarks/results/compile.md``). The same machine code for the share's loops, and the same results to the last
-bit. For a per-disk body called many times, numba's inlining costs more than it saves (:data:`inline_kernel`)."""
+once (a single env's first ``reset`` and ``step``, nothing cached: ``upright`` with rk4 17.6 -> 12.6 CPU s,
+``circle`` with Coulomb 49.1 -> 40.6; ``docs/performance/history.md``). The same vectorized loops, and the same
+results to the last bit. For a per-disk body called many times, numba's inlining costs more than it saves
+(:data:`inline_kernel`)."""
 parallel_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", parallel=True)
 """Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""
 prange = numba.prange
