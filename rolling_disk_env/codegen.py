@@ -665,7 +665,7 @@ that :data:`CONTACT_ROLL` marked go through the period again from its start, swi
 
 STEP_TEMPLATE = """
 
-@share_kernel
+@kernel
 def step_{method}_share(k, actions, batch, setup, out, resets):
     \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the

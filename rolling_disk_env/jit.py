@@ -1,5 +1,5 @@
-"""How the package compiles: every compiled function is declared with :data:`kernel`, :data:`inline_kernel` or
-:data:`parallel_kernel`.
+"""How the package compiles: every compiled function is declared with :data:`kernel`, :data:`inline_kernel`,
+:data:`share_kernel` or :data:`parallel_kernel`.
 
 Kernels are plain Python functions of floats and numpy arrays, compiled by numba on first call and cached on disk
 (``cache=True``): in ``NUMBA_CACHE_DIR`` if it is set, else in ``__pycache__`` next to the module, or, where that is
@@ -123,13 +123,14 @@ the tasks' reward terms and the integrators' steps, as calls). Numba's own inlin
 copies the callee's IR into each caller before typing it) gave the same results to the last bit and no faster steps,
 but took about 60% of a step's compile time (``docs/performance/history.md``, ``benchmarks/results/compile.md``)."""
 share_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", inline="always")
-"""Compiles a share's step only as part of the functions that call it (numba copies its code into each caller
-before typing it: ``inline="always"``), not as a function of its own. A step's callers, serial and threaded, are
-thin: numba compiles a function called from another on its own, then links its code into the caller and optimizes
-and compiles it again there, so a share compiled on its own was optimized twice in each configuration; inlined,
-once (a single env's first ``reset`` and ``step``, nothing cached: ``upright`` with rk4 17.6 -> 12.6 CPU s,
-``circle`` with Coulomb 49.1 -> 40.6; ``docs/performance/history.md``). The same vectorized loops, and the same
-results to the last bit. For a per-disk body called many times, numba's inlining costs more than it saves
+"""Compiles a thin function only as part of the functions that call it (numba copies its code into each caller
+before typing it: ``inline="always"``), not as a function of its own. Numba compiles a function called from another
+on its own, then links its code into the caller, where LLVM optimizes it and emits machine code for it again: the
+Coulomb step's share (``step_contact_share``, which calls its three passes) sat between the passes and the serial and
+threaded steps, so the passes were compiled three times a configuration, now twice (a single env's first ``reset``
+and ``step``, nothing cached, ``circle`` with Coulomb: 46.1 -> 41.2 s; ``docs/performance/history.md``). The rolling
+steps' shares stay kernels (:data:`kernel`): inlined, their loops inside the serial step's loop over the shares ran
+a single env's step 0.8 us slower. For a per-disk body called many times, numba's inlining costs more than it saves
 (:data:`inline_kernel`)."""
 parallel_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", parallel=True)
 """Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""

@@ -186,7 +186,7 @@ def reset_contact_share(k, resets, batch, setup, out):
         info[CONTACT_ROWS + 4, k, i] = contact[7]
 
 
-@share_kernel
+@kernel
 def step_euler_share(k, actions, batch, setup, out, resets):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -336,7 +336,7 @@ def step_euler_threads(actions, arrays, out, stepping):
     return bad
 
 
-@share_kernel
+@kernel
 def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -486,7 +486,7 @@ def step_symplectic_euler_threads(actions, arrays, out, stepping):
     return bad
 
 
-@share_kernel
+@kernel
 def step_rk4_share(k, actions, batch, setup, out, resets):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
@@ -636,7 +636,7 @@ def step_rk4_threads(actions, arrays, out, stepping):
     return bad
 
 
-@share_kernel
+@kernel
 def step_dopri5_share(k, actions, batch, setup, out, resets):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
