@@ -1,8 +1,9 @@
 """The disk in JAX: env steps per second of a jit-compiled ``lax.scan`` rollout, beside gymnax's CartPole, the RK4
 step alone and the numba vector env, in float64 and float32; XLA's compile times.
 
-``python benchmarks/bench_jax.py [--quick] [--out DIR]`` writes ``jax.md`` and ``jax_throughput.png`` to DIR (default
-``benchmarks/results``). Needs the ``[jax]`` extra.
+``python benchmarks/bench_jax.py [--quick] [--sizes N ...] [--out DIR]`` writes ``jax.md`` and ``jax_throughput.png``
+to DIR (default ``benchmarks/results``) where JAX runs on the CPU, ``jax_gpu.md`` and ``jax_gpu_throughput.png`` where
+it runs on a GPU (the device named in the file). Needs the ``[jax]`` extra.
 
 1. Throughput: ``steps`` steps of N disks in one compiled ``lax.scan`` whose body draws the N random actions from a
    key and steps the vmapped env (gymnax's ``step``, autoreset included), for the tasks ``upright`` and ``goto``,
@@ -34,6 +35,7 @@ from rolling_disk_env._generated import kernels
 
 jax.config.update("jax_enable_x64", True)
 SIZES = (1, 64, 1024, 16384)
+NUMBA_LIMIT = 65536  # the numba vector env's row stops here: one thread, seconds a call beyond
 STEPS = 100
 
 
@@ -124,16 +126,21 @@ def compile_seconds(count: int, steps: int) -> float:
 
 
 def main() -> None:
-    args = arguments(__doc__)
-    sizes, repeats = ((1, 64), 2) if args.quick else (SIZES, 3)
+    args = arguments(
+        __doc__, sizes={"type": int, "nargs": "+", "default": SIZES, "help": "N (default: %(default)s)"}
+    )
+    sizes, repeats = ((1, 64), 2) if args.quick else (tuple(args.sizes), 3)
+    device = jax.devices()[0]
+    stem = "jax" if device.platform == "cpu" else f"jax_{device.platform}"
     results = {}  # (name, precision) -> {N: rate}
     for count in sizes:
         for precision, x64 in (("float64", True), ("float32", False)):
             with jax.enable_x64(x64):
                 for name, function in rollouts(count, STEPS).items():
                     results.setdefault((name, precision), {})[count] = rate(function, count, STEPS, repeats)
-        results.setdefault(("numba vector env, upright", "float64"), {})[count] = numba_rate(count, STEPS, repeats)
-        print(count, {key: f"{value[count] / 1e6:.3f}M" for key, value in results.items()}, flush=True)
+        if count <= NUMBA_LIMIT:
+            results.setdefault(("numba vector env, upright", "float64"), {})[count] = numba_rate(count, STEPS, repeats)
+        print(count, {key: f"{value[count] / 1e6:.3f}M" for key, value in results.items() if count in value}, flush=True)
     compiles = []
     for precision, x64 in (("float64", True), ("float32", False)):
         with jax.enable_x64(x64):
@@ -141,7 +148,7 @@ def main() -> None:
 
     header = ["env", "precision", *(f"N = {count}" for count in sizes)]
     rows = [
-        [name, precision, *(f"{values[count] / 1e6:.3f}M" for count in sizes)]
+        [name, precision, *(f"{values[count] / 1e6:.3f}M" if count in values else "" for count in sizes)]
         for (name, precision), values in results.items()
     ]
     sections = [
@@ -152,7 +159,7 @@ def main() -> None:
         "",
         table(header, rows),
         "",
-        "![throughput](jax_throughput.png)",
+        f"![throughput]({stem}_throughput.png)",
         "",
         "## XLA compile time",
         "",
@@ -160,8 +167,9 @@ def main() -> None:
         "",
         table(["precision", "seconds"], compiles),
     ]
-    command = "python benchmarks/bench_jax.py" + (" --quick" if args.quick else "")
-    write_markdown("jax", "The disk in JAX: rollout throughput", command, sections, args.out)
+    command = "python benchmarks/bench_jax.py" + (" --quick" if args.quick else f" --sizes {' '.join(map(str, sizes))}")
+    title = f"The disk in JAX: rollout throughput on {device.device_kind} (JAX {jax.__version__})"
+    write_markdown(stem, title, command, sections, args.out)
 
     import matplotlib
 
@@ -174,11 +182,11 @@ def main() -> None:
         axes.loglog(list(values), list(values.values()), style, marker="o", label=f"{name}, {precision}")
     axes.set_xlabel("disks N")
     axes.set_ylabel("env steps per second")
-    axes.set_title("Compiled lax.scan rollouts in JAX on the CPU")
+    axes.set_title(f"Compiled lax.scan rollouts in JAX on {device.device_kind}")
     axes.legend(fontsize=7)
     axes.grid(True, which="both", alpha=0.3)
     figure.tight_layout()
-    figure.savefig(args.out / "jax_throughput.png", dpi=120)
+    figure.savefig(args.out / f"{stem}_throughput.png", dpi=120)
 
 
 if __name__ == "__main__":

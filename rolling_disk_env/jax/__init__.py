@@ -6,16 +6,32 @@ package itself never does. See :mod:`rolling_disk_env.jax.env` for what is suppo
 Importing it also adds :data:`CPU_FLAGS` to ``XLA_FLAGS`` (unless ``XLA_FLAGS`` names that option already): XLA's
 newer CPU fusion emitters compile the model's steps into code 65 times slower than its classic ones (the RK4 step of
 4096 disks: 21 us against 0.33 us a disk, ``benchmarks/bench_jax.py``'s machine). XLA reads the flag when JAX makes
-its CPU backend, at the first computation: import this subpackage before that, or set the flag yourself.
+its CPU backend, at the first computation: import this subpackage before that, or set the flag yourself. jaxlib 0.11
+removed the option, and XLA stops the process at a flag it does not know: from jaxlib 0.11 on nothing is set (seen
+on an H100 machine with jax 0.11.2; whether its CPU code has the slowdown is not measured, 0.11 was not on the
+registry of the machine that measured it).
 """
 
 import logging
 import os
 import sys
+from importlib import metadata
 
 CPU_FLAGS = "--xla_cpu_use_fusion_emitters=false"
 """The XLA option this subpackage sets for the CPU (see the module docstring)."""
-if CPU_FLAGS.partition("=")[0] not in os.environ.get("XLA_FLAGS", ""):
+
+
+def _xla_knows_cpu_flags() -> bool:
+    """Whether the installed jaxlib's XLA has :data:`CPU_FLAGS`'s option (releases before 0.11), read without
+    importing JAX."""
+    try:
+        major, minor = (int(part) for part in metadata.version("jaxlib").split(".")[:2])
+    except (metadata.PackageNotFoundError, ValueError):
+        return False
+    return (major, minor) < (0, 11)
+
+
+if _xla_knows_cpu_flags() and CPU_FLAGS.partition("=")[0] not in os.environ.get("XLA_FLAGS", ""):
     os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {CPU_FLAGS}".strip()
     started = sys.modules.get("jax._src.xla_bridge")  # JAX's own module: no public test of a started backend
     if started is not None and started.backends_are_initialized():
