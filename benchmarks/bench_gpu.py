@@ -475,8 +475,8 @@ def main() -> None:
         lines += [
             "## Seeding, memory, bandwidth",
             "",
-            f"- `reset(seed=0)`: {seeding[0]} s on the GPU at N = {biggest:,}; {seeding[1]} s for the CPU vector env "
-            f"at N = {min(biggest, 2**20):,}.",
+            f"- `reset(seed=0)`: {seeding[0] or 0:.3g} s on the GPU at N = {biggest:,}; {seeding[1] or 0:.3g} s for "
+            f"the CPU vector env at N = {min(biggest, 2**20):,} (a fresh env, its kernels compiled at N = 64 first).",
         ]
         peak = peak_bandwidth()
         for task in tasks:
