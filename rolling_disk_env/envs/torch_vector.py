@@ -212,7 +212,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         actions = self._checked_actions(actions)
-        (observations, rewards, dones), bad, ended = self._batch.step(actions)
+        (observations, rewards, terminated, truncated), bad, ended = self._batch.step(actions)
         if bad >= 0:
             raise ValueError(f"actions must be finite numbers, got {actions[bad].tolist()} for sub-environment {bad}")
         if ended >= 0:
@@ -223,7 +223,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
             )
         for update in self._refresh:
             update()
-        return observations, rewards, dones[0], dones[1], dict(self._step_infos)
+        return observations, rewards, terminated, truncated, dict(self._step_infos)
 
     def _device_infos(self, out: Outputs, mask: torch.Tensor) -> tuple[dict, list]:
         """The batched info of ``out`` (the GPU batch's) with the mask ``mask``: views of its tensors, made once, and
