@@ -16,6 +16,8 @@ gymnax's own wrappers for such trainers do.
 
 from __future__ import annotations
 
+import logging
+import os
 import shlex
 import sys
 import time
@@ -37,8 +39,22 @@ try:
 except ImportError as error:
     raise ImportError(f'train.py --jax needs rejax: pip install torch==2.13.0 -e ".[jax]" ({error})') from error
 
+log = logging.getLogger(__name__)
+
 OWN_KEYS = frozenset({"env_kwargs", "log_std_init"})
 """The keys of a block that :func:`train_in_jax` reads itself; the others go to ``rejax.PPO.create``."""
+
+
+def compilation_cache() -> Path:
+    """The folder of XLA's persistent compilation cache that the training uses: JAX's own setting where one was made
+    (``JAX_COMPILATION_CACHE_DIR``), else ``$XDG_CACHE_HOME/rolling-disk-env/xla`` (``~/.cache`` without it), set
+    here. A second run of the same configuration then loads the compiled program instead of compiling it again."""
+    configured = jax.config.jax_compilation_cache_dir
+    if configured:
+        return Path(configured)
+    path = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rolling-disk-env" / "xla"
+    jax.config.update("jax_compilation_cache_dir", str(path))
+    return path
 
 
 class DoneStep:
@@ -143,9 +159,11 @@ def train_in_jax(
             log_std = jnp.full_like(actor["params"]["action_log_std"], float(hyperparams["log_std_init"]))
             actor = {**actor, "params": {**actor["params"], "action_log_std": log_std}}
             start = start.replace(actor_ts=start.actor_ts.replace(params=actor))
+        cache = compilation_cache()
         began = time.perf_counter()
         train = jax.jit(lambda state: algo.train(train_state=state)).lower(start).compile()
         compiled = time.perf_counter()
+        log.info("XLA compiled the training (or loaded it) in %.1f s; its cache: %s", compiled - began, cache)
         train_state, (_, returns) = jax.block_until_ready(train(start))
         trained = time.perf_counter()
         if verbose:
@@ -157,7 +175,7 @@ def train_in_jax(
         compile_s, train_s = compiled - began, trained - compiled
         (out / "timings.md").write_text(
             "| what | seconds |\n| --- | --- |\n"
-            f"| XLA compile of the training (env, rollouts, updates) | {compile_s:.1f} |\n"
+            f"| XLA compile of the training (env, rollouts, updates; or its load from {cache}) | {compile_s:.1f} |\n"
             f"| training, {config['total_timesteps']} steps | {train_s:.1f} |\n"
         )
         title = (
