@@ -45,10 +45,11 @@ OWN_KEYS = frozenset({"env_kwargs", "log_std_init"})
 """The keys of a block that :func:`train_in_jax` reads itself; the others go to ``rejax.PPO.create``."""
 
 
-def compilation_cache() -> Path:
-    """The folder of XLA's persistent compilation cache that the training uses: JAX's own setting where one was made
-    (``JAX_COMPILATION_CACHE_DIR``), else ``$XDG_CACHE_HOME/rolling-disk-env/xla`` (``~/.cache`` without it), set
-    here. A second run of the same configuration then loads the compiled program instead of compiling it again."""
+def use_compilation_cache() -> Path:
+    """Turns on XLA's persistent compilation cache for this process, so that a second run of the same configuration
+    loads the compiled training instead of compiling it again, and returns its folder: JAX's own setting where one
+    was made (``JAX_COMPILATION_CACHE_DIR``), else ``$XDG_CACHE_HOME/rolling-disk-env/xla`` (``~/.cache`` without
+    it). Where the folder cannot be written, JAX warns and compiles."""
     configured = jax.config.jax_compilation_cache_dir
     if configured:
         return Path(configured)
@@ -159,7 +160,7 @@ def train_in_jax(
             log_std = jnp.full_like(actor["params"]["action_log_std"], float(hyperparams["log_std_init"]))
             actor = {**actor, "params": {**actor["params"], "action_log_std": log_std}}
             start = start.replace(actor_ts=start.actor_ts.replace(params=actor))
-        cache = compilation_cache()
+        cache = use_compilation_cache()
         began = time.perf_counter()
         train = jax.jit(lambda state: algo.train(train_state=state)).lower(start).compile()
         compiled = time.perf_counter()

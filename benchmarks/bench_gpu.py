@@ -383,6 +383,11 @@ def chart(sizes, rows: dict[str, list[float]], path, title: str) -> None:
     plt.close(fig)
 
 
+def _seconds(value: float | None) -> str:
+    """A measured time for the report (s), or that it was not measured."""
+    return "not measured" if value is None else f"{value:.3g} s"
+
+
 class Results:
     """The figures of a run, printed and saved (``gpu.json``) as each is measured, within a time budget."""
 
@@ -475,7 +480,7 @@ def main() -> None:
         lines += [
             "## Seeding, memory, bandwidth",
             "",
-            f"- `reset(seed=0)`: {seeding[0] or 0:.3g} s on the GPU at N = {biggest:,}; {seeding[1] or 0:.3g} s for "
+            f"- `reset(seed=0)`: {_seconds(seeding[0])} on the GPU at N = {biggest:,}; {_seconds(seeding[1])} for "
             f"the CPU vector env at N = {min(biggest, 2**20):,} (a fresh env, its kernels compiled at N = 64 first).",
         ]
         peak = peak_bandwidth()

@@ -355,14 +355,24 @@ def test_float32_where_x64_is_off():
 def test_train_py_jax_writes_the_run_folder(tmp_path):
     """``train.py --jax``: rejax's PPO on the gymnax env (a short run) writes the run folder and the results table
     of the other trainers, evaluated on the Gymnasium env."""
+    from jax.experimental.compilation_cache import compilation_cache
+
     import train
 
-    out = tmp_path / "run"
-    results = train.main(["--jax", "--timesteps", "2048", "--n-envs", "4", "--eval-episodes", "3", "--out", str(out)])
+    out, cache = tmp_path / "run", tmp_path / "xla"
+    compilation_cache.reset_cache()
+    jax.config.update("jax_compilation_cache_dir", str(cache))  # the training keeps JAX's setting where one is made
+    try:
+        arguments = ["--jax", "--timesteps", "2048", "--n-envs", "4", "--eval-episodes", "3", "--out", str(out)]
+        results = train.main(arguments)
+    finally:
+        jax.config.update("jax_compilation_cache_dir", None)
+        compilation_cache.reset_cache()
     assert [result.name.split(" ")[0] for result in results] == ["PPO", "passive", "baseline:"]
     for name in ("config.yml", "command.txt", "algo.txt", "results.md", "timings.md", "policy.msgpack"):
         assert (out / name).is_file(), name
     assert "PPO (rejax" in (out / "results.md").read_text()
+    assert any(cache.iterdir()), "the compiled training is not in XLA's persistent cache"
 
 
 def test_the_manuals_examples_run(tmp_path):

@@ -26,7 +26,8 @@ def _xla_knows_cpu_flags() -> bool:
     importing JAX."""
     try:
         major, minor = (int(part) for part in metadata.version("jaxlib").split(".")[:2])
-    except (metadata.PackageNotFoundError, ValueError):
+    except (metadata.PackageNotFoundError, ValueError) as error:
+        logging.getLogger(__name__).debug("jaxlib's version not read (%s): %s not set", error, CPU_FLAGS)
         return False
     return (major, minor) < (0, 11)
 
