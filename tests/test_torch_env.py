@@ -33,15 +33,23 @@ def _numpy(value):
     return value.cpu().numpy() if isinstance(value, torch.Tensor) else np.asarray(value)
 
 
-def _assert_close(ours, theirs, rtol: float, where: str) -> None:
-    """Floats within ``rtol`` of the numpy env's, relative to each array's largest value; other dtypes equal."""
+def _assert_close(ours, theirs, rtol: float, where: str, extra: np.ndarray | None = None) -> None:
+    """Floats within ``rtol`` of the numpy env's, relative to each array's largest value, each row also allowed
+    ``extra`` where given (on the norm of a row's error, for 2-D); other dtypes equal."""
     ours, theirs = _numpy(ours), _numpy(theirs)
     assert ours.shape == theirs.shape, where
-    if theirs.dtype.kind == "f":
-        scale = max(float(np.max(np.abs(theirs), initial=0.0)), 1.0)
-        np.testing.assert_allclose(ours, theirs, rtol=0.0, atol=rtol * scale, err_msg=where)
-    else:
+    if theirs.dtype.kind != "f":
         np.testing.assert_array_equal(ours, theirs, err_msg=where)
+        return
+    scale = max(float(np.max(np.abs(theirs), initial=0.0)), 1.0)
+    if extra is None:
+        np.testing.assert_allclose(ours, theirs, rtol=0.0, atol=rtol * scale, err_msg=where)
+        return
+    same_nan = np.isnan(ours) & np.isnan(theirs)  # equal, as assert_allclose has them
+    error = np.abs(ours - theirs) if theirs.ndim == 1 else np.linalg.norm(ours - theirs, axis=1)
+    error = np.where(same_nan if theirs.ndim == 1 else same_nan.all(axis=1), 0.0, error)
+    excess = error - rtol * scale - extra
+    assert np.all(excess <= 0.0), f"{where}: disk {np.argmax(excess)} off by {np.max(excess):.3g} beyond tolerance"
 
 
 def _slide_allowance(info: dict, rtol: float, rows) -> np.ndarray:
@@ -83,18 +91,6 @@ def test_the_normal_force_follows_the_friction_by_less_than_the_gain():
     assert NORMAL_FORCE_GAIN / 10 < worst < NORMAL_FORCE_GAIN
 
 
-def _assert_close_sliding(ours, theirs, rtol: float, where: str, extra: np.ndarray) -> None:
-    """As :func:`_assert_close` (floats), each row also allowed ``extra`` (the norm of a row's error, for 2-D)."""
-    ours, theirs = _numpy(ours), np.asarray(theirs)
-    assert ours.shape == theirs.shape, where
-    scale = max(float(np.max(np.abs(theirs), initial=0.0)), 1.0)
-    error = np.abs(ours - theirs) if theirs.ndim == 1 else np.linalg.norm(ours - theirs, axis=1)
-    same_nan = np.isnan(ours) & np.isnan(theirs)  # as assert_allclose's equal_nan
-    error = np.where(same_nan if theirs.ndim == 1 else same_nan.all(axis=1), 0.0, error)
-    excess = error - rtol * scale - extra
-    assert np.all(excess <= 0.0), f"{where}: disk {np.argmax(excess)} off by {np.max(excess):.3g} beyond tolerance"
-
-
 def _assert_infos_close(ours: dict, theirs: dict, rtol: float, where: str, rows=slice(None)) -> None:
     """Every key of the numpy env's info in ours, as tensors, close on the sub-environments ``rows``. On the GPU,
     SAME_STEP's final keys are there at every step: where the numpy env has none, their masks hold no True."""
@@ -113,7 +109,7 @@ def _assert_infos_close(ours: dict, theirs: dict, rtol: float, where: str, rows=
             assert isinstance(ours[key], torch.Tensor), f"{where}[{key}] is a {type(ours[key])}"
             if key in ("contact_force", "normal_force") and "sliding" in theirs:
                 extra = _slide_allowance(theirs, rtol, rows) * (1.0 if key == "contact_force" else NORMAL_FORCE_GAIN)
-                _assert_close_sliding(_numpy(ours[key])[rows], np.asarray(value)[rows], rtol, f"{where}[{key}]", extra)
+                _assert_close(_numpy(ours[key])[rows], np.asarray(value)[rows], rtol, f"{where}[{key}]", extra)
             else:
                 _assert_close(_numpy(ours[key])[rows], np.asarray(value)[rows], rtol, f"{where}[{key}]")
 
