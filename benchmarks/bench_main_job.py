@@ -1,8 +1,8 @@
 """The main job's wall time: ``python train.py`` as a user runs it, the whole process, with no compiled kernel cached
 and with the cache warm.
 
-``python benchmarks/bench_main_job.py [--quick] [--out DIR]`` writes ``main_job.md`` and ``main_job.png`` to DIR
-(default ``benchmarks/results``).
+``python benchmarks/bench_main_job.py [--quick] [--out DIR] [--against FILE]`` writes ``main_job.md`` and
+``main_job.png`` to DIR (default ``benchmarks/results``).
 
 Each run is a fresh process of ``python train.py --out <temporary folder>`` (PPO on ``upright``, the README's main
 job), timed from its start to its exit: imports, compiling or loading the kernels, training, the final table over
@@ -10,6 +10,10 @@ job), timed from its start to its exit: imports, compiling or loading the kernel
 compiles (a fresh install's first run); *warm*: the same cache again, :data:`WARM_RUNS` runs, their median. Where
 rsl-rl-lib is installed (the ``[gpu]`` extra), ``python train.py --device cpu`` (rsl_rl's PPO on the torch vector
 env, 4096 disks, the CPU engine) is timed once after them: its threaded kernels for 4096 disks compile in it.
+``--against FILE`` (hyperparameters in ``agents/hyperparams/ppo.yml``'s format, e.g. the file before a change of
+settings: ``git show <commit>:agents/hyperparams/ppo.yml > FILE``) times ``python train.py --config FILE`` warm too,
+each of its runs right after one of the main job's, and gives the ratio of the medians: a comparison that a slow spell
+of the shared machine hits on both sides.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import sys
 import tempfile
 import time
 from importlib.util import find_spec
+from pathlib import Path
 
 from _common import ROOT, arguments, cpu, table, write_markdown
 
@@ -68,7 +73,10 @@ def chart(rows: list[tuple[str, float]], path, title: str) -> None:
 
 
 def main() -> None:
-    args = arguments(__doc__)
+    args = arguments(
+        __doc__,
+        against=dict(type=Path, metavar="FILE", help="hyperparameters to time in turn with the warm main job"),
+    )
     warm_runs = 1 if args.quick else WARM_RUNS
     quick = ["--timesteps", "2048", "--eval-episodes", "10"] if args.quick else []
     jobs = {"python train.py": quick}
@@ -82,7 +90,12 @@ def main() -> None:
                 rows.append([name, "cold: no kernel cached", f"{cold:.1f}", row])
                 chart_rows.append((f"{name}, cold", cold))
             runs = warm_runs if name == "python train.py" else 1  # rsl_rl's run takes minutes on the CPU
-            warm = [run(command, cache, home) for _ in range(runs)]
+            anchored = name == "python train.py" and args.against is not None
+            warm, anchor = [], []
+            for _ in range(runs):
+                warm.append(run(command, cache, home))
+                if anchored:
+                    anchor.append(run(["--config", str(args.against.resolve()), *command], cache, home))
             median = statistics.median(seconds for seconds, _ in warm)
             cache = (
                 f"warm: median of {runs}"
@@ -91,12 +104,25 @@ def main() -> None:
             )
             rows.append([name, cache, f"{median:.1f}", warm[0][1]])
             chart_rows.append((f"{name}, warm", median))
+            if anchored:
+                other = statistics.median(seconds for seconds, _ in anchor)
+                rows.append(
+                    [
+                        f"python train.py --config {args.against.name}",
+                        f"warm: median of {runs}, each run after one above ({median / other:.2f}x as long above)",
+                        f"{other:.1f}",
+                        anchor[0][1],
+                    ]
+                )
+                chart_rows.append((f"--config {args.against.name}, warm", other))
 
     chart(chart_rows, args.out / "main_job.png", f"the main job, whole process; {cpu()}")
     write_markdown(
         "main_job",
         "The main job's wall time",
-        "python benchmarks/bench_main_job.py" + (" --quick" if args.quick else ""),
+        "python benchmarks/bench_main_job.py"
+        + (" --quick" if args.quick else "")
+        + (f" --against {args.against.name}" if args.against else ""),
         [
             __doc__.split("\n\n", 2)[2].strip(),
             "",

@@ -5,12 +5,12 @@ vector env.
 (default ``benchmarks/results``).
 
 The main job's settings: the ``RollingDiskUpright-v0`` block of ``agents/hyperparams/ppo.yml`` read as
-``agents.training`` reads it (8 envs, VecNormalize, PPO's hyperparameters and network), one torch thread, seed 0.
-Two VecEnvs give PPO the same 8 disks with the same seeds: SB3's ``make_vec_env(..., vec_env_cls=DummyVecEnv)``
+``agents.training`` reads it (its envs, VecNormalize, PPO's hyperparameters and network), one torch thread, seed 0.
+Two VecEnvs give PPO the same disks with the same seeds: SB3's ``make_vec_env(..., vec_env_cls=DummyVecEnv)``
 over single envs (what ``train.py`` uses), and ``rolling_disk_env.sb3.make_vec_env`` (``VecMonitor`` over
-``NativeVecEnv``: one compiled call steps the 8 disks).
+``NativeVecEnv``: one compiled call steps the disks).
 
-1. One step of the 8 envs with random actions, each VecEnv and the native vector env alone (no adapter), medians
+1. One step of the envs with random actions, each VecEnv and the native vector env alone (no adapter), medians
    of 5 runs of 2,000 steps timed in turn.
 2. ``PPO.learn`` for ``--timesteps`` steps (default 50,000; 4,096 with ``--quick``) without evaluations, a fresh
    model and VecEnv per run, the two VecEnvs in turn after an untimed rollout with each, medians of 3 runs (1 with
