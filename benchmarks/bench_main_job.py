@@ -77,6 +77,8 @@ def main() -> None:
         __doc__,
         against=dict(type=Path, metavar="FILE", help="hyperparameters to time in turn with the warm main job"),
     )
+    if args.against is not None and not args.against.is_file():
+        raise SystemExit(f"bench_main_job.py: --against {args.against}: no such file (hyperparameters to compare)")
     warm_runs = 1 if args.quick else WARM_RUNS
     quick = ["--timesteps", "2048", "--eval-episodes", "10"] if args.quick else []
     jobs = {"python train.py": quick}
@@ -97,12 +99,12 @@ def main() -> None:
                 if anchored:
                     anchor.append(run(["--config", str(args.against.resolve()), *command], cache, home))
             median = statistics.median(seconds for seconds, _ in warm)
-            cache = (
+            label = (
                 f"warm: median of {runs}"
                 if name == "python train.py"
                 else "after those (its 4096-disk kernels compile)"
             )
-            rows.append([name, cache, f"{median:.1f}", warm[0][1]])
+            rows.append([name, label, f"{median:.1f}", warm[0][1]])
             chart_rows.append((f"{name}, warm", median))
             if anchored:
                 other = statistics.median(seconds for seconds, _ in anchor)
