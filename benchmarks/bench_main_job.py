@@ -44,9 +44,11 @@ def run(command: list[str], cache: str, home: str) -> tuple[float, str]:
             env=environment,
             capture_output=True,
             text=True,
-            check=True,
+            check=False,
         )
         seconds = time.perf_counter() - start
+    if result.returncode != 0:
+        raise SystemExit(f"bench_main_job.py: train.py {' '.join(command)} failed:\n{result.stderr.strip()}")
     row = next(line for line in result.stdout.splitlines() if line.startswith("| PPO"))
     agent, score, success = (cell.strip() for cell in row.strip("|").split("|"))
     return seconds, f"{agent}: {score}, {success}"
@@ -77,8 +79,13 @@ def main() -> None:
         __doc__,
         against=dict(type=Path, metavar="FILE", help="hyperparameters to time in turn with the warm main job"),
     )
-    if args.against is not None and not args.against.is_file():
-        raise SystemExit(f"bench_main_job.py: --against {args.against}: no such file (hyperparameters to compare)")
+    if args.against is not None:
+        from agents.training import ConfigError, load_hyperparams
+
+        try:
+            load_hyperparams(args.against, "RollingDiskUpright-v0")
+        except (OSError, ConfigError) as error:
+            raise SystemExit(f"bench_main_job.py: --against {args.against}: {error}") from None
     warm_runs = 1 if args.quick else WARM_RUNS
     quick = ["--timesteps", "2048", "--eval-episodes", "10"] if args.quick else []
     jobs = {"python train.py": quick}
@@ -111,7 +118,7 @@ def main() -> None:
                 rows.append(
                     [
                         f"python train.py --config {args.against.name}",
-                        f"warm: median of {runs}, each run after one above ({median / other:.2f}x as long above)",
+                        f"warm: median of {runs}, each run after one above (the row above: {median / other:.2f}x)",
                         f"{other:.1f}",
                         anchor[0][1],
                     ]
