@@ -19,8 +19,8 @@ The files are plain Python on floats, readable next to the paper, and what numba
 * ``_generated/<task>.py``, one per task of :data:`rolling_disk_env.tasks.TASKS`: for each integrator, the fused step
   of a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
   (the action's torques; integration and domain check; contact checks and the task's termination,
-  :data:`CHECKS_TEMPLATE`; reward terms, success and observation, :data:`OUTPUTS_LOOP`), with its callers for one
-  share and for several on threads (:data:`CALLERS_TEMPLATE`), and the reset, written from :data:`STEP_TEMPLATE`
+  :data:`CHECKS_TEMPLATE`; reward terms, success and observation, :data:`OUTPUTS_LOOP`), with its caller for a range
+  of shares (:data:`CALLERS_TEMPLATE`), and the reset, written from :data:`STEP_TEMPLATE`
   and :data:`RESET_TEMPLATE`; the step under the ``"sliding"`` and ``"coulomb"`` contacts in its three passes
   (:data:`CONTACT_STEP_TEMPLATE`: the rolling pass, the hybrid pass of the disks it marked, the outputs).
   Each records a hash of its task module's source, so that the engine refuses steps generated from an older task.
@@ -747,41 +747,26 @@ three passes (then :data:`CALLERS_TEMPLATE`)."""
 CALLERS_TEMPLATE = """
 
 @kernel
-def step_{method}(actions, arrays, out, stepping):
-    \"\"\"Steps a batch (see :func:`step_{method}_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
-    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
-    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
-    resets' mask (:func:`{reset}`) and returns -1. One compiled function serves a configuration's resets and steps,
-    in the single env and the vector env.\"\"\"
+def step_{method}(actions, arrays, out, stepping, shares):
+    \"\"\"Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_{method}_share`; ``arrays``
+    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
+    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
+    episodes of the resets' mask in those shares (:func:`{reset}`) and returns -1. One compiled function serves a
+    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
+    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread).\"\"\"
     batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
     if not stepping:
-        for k in range(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             {reset}(np.int64(k), resets, batch, setup, out)
         return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in range(batch[0].shape[1]):
-            step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@parallel_kernel
-def step_{method}_threads(actions, arrays, out, stepping):
-    \"\"\":func:`step_{method}` with the shares on numba's threads, a share per thread (the share index is cast to
-    the type the serial step passes, so that both call the same compiled share).\"\"\"
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in prange(batch[0].shape[1]):
-            {reset}(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in prange(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 """
-"""The callers of a share's step, for a batch of disks: on the calling thread, and on numba's threads; each, when not
-stepping, only starts the episodes of the resets' mask."""
+"""The caller of a share's step, for the shares of a batch in a range: when not stepping, it only starts the episodes
+of the resets' mask."""
 
 RESET_TEMPLATE = """
 
@@ -1011,7 +996,7 @@ def generate_steps(task) -> str:
             "    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,",
             "    TRACKING_WEIGHT, TRUNCATED,",
             ")",
-            "from rolling_disk_env.jit import kernel, parallel_kernel, prange, share_kernel",
+            "from rolling_disk_env.jit import kernel, share_kernel",
             f"import {module.__name__} as task",
             "",
             f'TASK_SOURCE = "{task.source_hash()}"',

@@ -9,8 +9,8 @@ Everything here is compiled by numba (:mod:`rolling_disk_env.jit`) from plain Py
 * the fused step of each task (``_generated/<task>.py``, written by :mod:`rolling_disk_env.codegen` from a template):
   a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
   (integration; contact forces and checks, the task's termination, reward terms, success and observation), then the
-  reset of the share's disks whose episodes start anew (Gymnasium's next-step autoreset), called for one share on the
-  calling thread or for several at once on numba's threads;
+  reset of the share's disks whose episodes start anew (Gymnasium's next-step autoreset), called for a range of
+  shares on the calling thread, or for each share at once on numba's threads (:func:`step_shares`);
 * the batch loops of the model API (:mod:`rolling_disk_env.dynamics`, :func:`rolling_disk_env.simulate`).
 
 The single env and the vector env call the same generated functions, so they give the same transitions to the last
@@ -32,7 +32,7 @@ from numba.experimental import structref
 
 from rolling_disk_env._generated import kernels, sliding
 from rolling_disk_env.constants import CONTACTS, ENGINE_METHODS, EVENT_TIME_TOLERANCE, LEAN_LIMIT, STOP_SLIP, ZERO_SLIP
-from rolling_disk_env.jit import inline_kernel, kernel
+from rolling_disk_env.jit import inline_kernel, kernel, parallel_kernel, prange
 from rolling_disk_env.trig import sincos
 
 METHODS = ENGINE_METHODS
@@ -395,6 +395,20 @@ def first_nonfinite(actions) -> int:
                 if not math.isfinite(actions[i, j]):
                     return i
     return -1
+
+
+@parallel_kernel
+def step_shares(step, actions, arrays, out, stepping) -> int:
+    """Calls a task's compiled step (``_generated/<task>.py``, ``step_<method>(actions, arrays, out, stepping,
+    shares)``), taken as a first-class function (:func:`rolling_disk_env.jit.first_class`), on each share of the
+    batch at once, a share per numba thread; returns what it returns (each call checks every action, so all return the
+    first disk with a non-finite action, or -1)."""
+    shares = arrays.batch[0].shape[1]
+    bad = np.empty(shares, dtype=np.int64)
+    for k in prange(shares):
+        first = np.int64(k)
+        bad[k] = step(actions, arrays, out, stepping, (first, first + 1))
+    return bad[0]
 
 
 @inline_kernel

@@ -1,5 +1,6 @@
 """How the package compiles: every compiled function is declared with :data:`kernel`, :data:`inline_kernel`,
-:data:`share_kernel` or :data:`parallel_kernel`.
+:data:`share_kernel` or :data:`parallel_kernel`; a compiled kernel that another calls through its address is a
+:func:`first_class` function.
 
 Kernels are plain Python functions of floats and numpy arrays, compiled by numba on first call and cached on disk
 (``cache=True``): in ``NUMBA_CACHE_DIR`` if it is set, else in ``__pycache__`` next to the module, or, where that is
@@ -35,6 +36,8 @@ from pathlib import Path
 import llvmlite.binding
 import numba
 from numba.core import caching
+from numba.core.types import WrapperAddressProtocol
+from numba.experimental import function_type
 
 PACKAGE = Path(__file__).resolve().parent
 
@@ -126,13 +129,45 @@ share_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy"
 """Compiles a thin function only as part of the functions that call it (numba copies its code into each caller
 before typing it: ``inline="always"``), not as a function of its own. Numba compiles a function called from another
 on its own, then links its code into the caller, where LLVM optimizes it and emits machine code for it again: the
-Coulomb step's share (``step_contact_share``, which calls its three passes) sat between the passes and the serial and
-threaded steps, so the passes were compiled three times a configuration, now twice (a single env's first ``reset``
-and ``step``, nothing cached, ``circle`` with Coulomb: 46.1 -> 41.2 s; ``docs/performance/history.md``). The rolling
-steps' shares stay kernels (:data:`kernel`): inlined, their loops inside the serial step's loop over the shares ran
-a single env's step 0.8 us slower. For a per-disk body called many times, numba's inlining costs more than it saves
-(:data:`inline_kernel`)."""
+Coulomb step's share (``step_contact_share``, which calls its three passes) sat between the passes and the step, so
+the passes were compiled once more a configuration (a single env's first ``reset`` and ``step``, nothing cached,
+``circle`` with Coulomb: 46.1 -> 41.2 s; ``docs/performance/history.md``). The rolling steps' shares stay kernels
+(:data:`kernel`): inlined, their loops inside the step's loop over the shares ran a single env's step 0.8 us slower.
+For a per-disk body called many times, numba's inlining costs more than it saves (:data:`inline_kernel`)."""
 parallel_kernel = numba.njit(cache=CACHE_DIRECTORY is not None, error_model="numpy", parallel=True)
 """Compiles a function whose ``prange`` loop runs its iterations on numba's threads (``NUMBA_NUM_THREADS``)."""
 prange = numba.prange
 """``range`` whose iterations a :data:`parallel_kernel` spreads over threads."""
+
+
+class CompiledFunction(WrapperAddressProtocol):
+    """A kernel compiled for one signature, as numba's first-class functions are passed (its wrapper address
+    protocol): the address of its C-callable wrapper, and its signature."""
+
+    def __init__(self, kernel, signature):
+        self._signature = signature
+        self._address = function_type._get_wrapper_address(kernel, signature)  # numba's own look-up, once
+
+    def __wrapper_address__(self) -> int:
+        return self._address
+
+    def signature(self):
+        return self._signature
+
+
+def first_class(kernel, args: tuple):
+    """``kernel`` compiled for the types of ``args`` (it must have been: ``Dispatcher.compile``), as a first-class
+    function that a kernel takes as an argument and calls through its address (where JIT is disabled, the kernel
+    itself).
+
+    A kernel that calls another by name links that one's code into its own, where LLVM optimizes it and emits its
+    machine code again: the threaded step of a batch, calling the task's step by name, took as long again to compile as
+    the step itself (``docs/performance/history.md``); called through its address, it compiles in a second or two,
+    once for every task and contact whose steps take arguments of the same types. Passing the dispatcher itself would
+    look its compiled function up at every call (measured: about 100 us); this object hands numba the address it
+    keeps (about 5 us a call).
+    """
+    if not hasattr(kernel, "overloads"):
+        return kernel
+    signature = tuple(kernel.typeof_pyval(arg) for arg in args)
+    return CompiledFunction(kernel, kernel.overloads[signature].signature)

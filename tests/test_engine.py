@@ -150,7 +150,7 @@ def test_a_large_batch_has_shares_of_rows_of_an_odd_number_of_cache_lines(num_en
         assert width == num_envs
     else:
         assert num_envs <= width <= num_envs + 16 and width % 8 == 0 and (width // 8) % 2 == 1
-    # circle: the task whose threaded step test_vector_env compiles too (one parallel compile for both files)
+    # circle: the task whose batches test_vector_env steps on threads too (its step compiled once for both files)
     env = rd.RollingDiskVectorEnv(num_envs=num_envs, task="circle")
     batch = env._batch
     assert batch.threads == (jit.numba.get_num_threads() if num_envs >= THREADS_FROM else 1)

@@ -24,7 +24,7 @@ from rolling_disk_env.engine import (
     SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,
     TRACKING_WEIGHT, TRUNCATED,
 )
-from rolling_disk_env.jit import kernel, parallel_kernel, prange, share_kernel
+from rolling_disk_env.jit import kernel, share_kernel
 import rolling_disk_env.tasks.upright as task
 
 TASK_SOURCE = "ba6072f60cdd1a1f39faae4d84d4d1ecfda094a5cab9e15ed9803392263275e4"
@@ -298,36 +298,21 @@ def step_euler_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_euler(actions, arrays, out, stepping):
-    """Steps a batch (see :func:`step_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
-    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
-    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
-    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
-    in the single env and the vector env."""
+def step_euler(actions, arrays, out, stepping, shares):
+    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_euler_share`; ``arrays``
+    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
+    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
+    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
+    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
+    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
     batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
     if not stepping:
-        for k in range(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             reset_share(np.int64(k), resets, batch, setup, out)
         return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in range(batch[0].shape[1]):
-            step_euler_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@parallel_kernel
-def step_euler_threads(actions, arrays, out, stepping):
-    """:func:`step_euler` with the shares on numba's threads, a share per thread (the share index is cast to
-    the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in prange(batch[0].shape[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in prange(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             step_euler_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
@@ -444,36 +429,21 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_symplectic_euler(actions, arrays, out, stepping):
-    """Steps a batch (see :func:`step_symplectic_euler_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
-    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
-    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
-    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
-    in the single env and the vector env."""
+def step_symplectic_euler(actions, arrays, out, stepping, shares):
+    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_symplectic_euler_share`; ``arrays``
+    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
+    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
+    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
+    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
+    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
     batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
     if not stepping:
-        for k in range(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             reset_share(np.int64(k), resets, batch, setup, out)
         return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in range(batch[0].shape[1]):
-            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@parallel_kernel
-def step_symplectic_euler_threads(actions, arrays, out, stepping):
-    """:func:`step_symplectic_euler` with the shares on numba's threads, a share per thread (the share index is cast to
-    the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in prange(batch[0].shape[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in prange(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
@@ -590,36 +560,21 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_rk4(actions, arrays, out, stepping):
-    """Steps a batch (see :func:`step_rk4_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
-    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
-    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
-    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
-    in the single env and the vector env."""
+def step_rk4(actions, arrays, out, stepping, shares):
+    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_rk4_share`; ``arrays``
+    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
+    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
+    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
+    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
+    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
     batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
     if not stepping:
-        for k in range(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             reset_share(np.int64(k), resets, batch, setup, out)
         return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in range(batch[0].shape[1]):
-            step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@parallel_kernel
-def step_rk4_threads(actions, arrays, out, stepping):
-    """:func:`step_rk4` with the shares on numba's threads, a share per thread (the share index is cast to
-    the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in prange(batch[0].shape[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in prange(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
@@ -715,36 +670,21 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_dopri5(actions, arrays, out, stepping):
-    """Steps a batch (see :func:`step_dopri5_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
-    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
-    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
-    resets' mask (:func:`reset_share`) and returns -1. One compiled function serves a configuration's resets and steps,
-    in the single env and the vector env."""
+def step_dopri5(actions, arrays, out, stepping, shares):
+    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_dopri5_share`; ``arrays``
+    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
+    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
+    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
+    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
+    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
     batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
     if not stepping:
-        for k in range(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             reset_share(np.int64(k), resets, batch, setup, out)
         return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in range(batch[0].shape[1]):
-            step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@parallel_kernel
-def step_dopri5_threads(actions, arrays, out, stepping):
-    """:func:`step_dopri5` with the shares on numba's threads, a share per thread (the share index is cast to
-    the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in prange(batch[0].shape[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in prange(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
     return bad
 
@@ -921,35 +861,20 @@ def step_contact_share(k, actions, batch, setup, out, resets):
 
 
 @kernel
-def step_contact(actions, arrays, out, stepping):
-    """Steps a batch (see :func:`step_contact_share`; ``arrays`` its :class:`~rolling_disk_env.engine.Bundle`, whose
-    resets the step starts) where ``stepping``, its shares one after the other on the calling thread, and returns the
-    first disk with a non-finite action (then nothing is stepped), or -1; else only starts the episodes of the
-    resets' mask (:func:`reset_contact_share`) and returns -1. One compiled function serves a configuration's resets and steps,
-    in the single env and the vector env."""
+def step_contact(actions, arrays, out, stepping, shares):
+    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_contact_share`; ``arrays``
+    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
+    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
+    episodes of the resets' mask in those shares (:func:`reset_contact_share`) and returns -1. One compiled function serves a
+    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
+    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
     batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
     if not stepping:
-        for k in range(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             reset_contact_share(np.int64(k), resets, batch, setup, out)
         return -1
     bad = engine.first_nonfinite(actions)
     if bad < 0:
-        for k in range(batch[0].shape[1]):
-            step_contact_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@parallel_kernel
-def step_contact_threads(actions, arrays, out, stepping):
-    """:func:`step_contact` with the shares on numba's threads, a share per thread (the share index is cast to
-    the type the serial step passes, so that both call the same compiled share)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in prange(batch[0].shape[1]):
-            reset_contact_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in prange(batch[0].shape[1]):
+        for k in range(shares[0], shares[1]):
             step_contact_share(np.int64(k), actions, batch, setup, out, resets)
     return bad

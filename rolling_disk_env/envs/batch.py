@@ -45,6 +45,7 @@ except ImportError:  # Windows
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import ROLLING_INDICES
 from rolling_disk_env.envs.config import EnvConfig
+from rolling_disk_env.jit import first_class
 from rolling_disk_env.tasks.base import Task
 
 GIVEN_SIZE = 10
@@ -391,11 +392,11 @@ class DiskBatch:
         self.num_envs = num_envs
         self.threads, self.share = self._layout(num_envs)
         width = self.threads * self.share
-        # The serial and the threaded kernels: each steps and resets (one compiled function for the single env's and
-        # the vector env's steps and resets), for one integrator and one contact family.
+        # The kernel that steps and resets a range of shares: one compiled function for the single env's and the vector
+        # env's steps and resets, for one integrator and one contact family, on the calling thread or on threads.
         self.method = config.integrator if config.contact == "rolling" else "contact"
         """The step's method: the integrator under the ``"rolling"`` contact, else ``"contact"``."""
-        self._steps = (getattr(steps, f"step_{self.method}"), getattr(steps, f"step_{self.method}_threads"))
+        self._step = getattr(steps, f"step_{self.method}")
         self.description = f"task {task.name!r}'s step and reset ({self.method}, {config.contact} contact)"
         """What the kernels compute, as the compile log names them (:func:`entry_point`)."""
         self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
@@ -478,7 +479,7 @@ class DiskBatch:
     def _bundle(self) -> None:
         """The batch's :meth:`shares`, with the settings and the resets, in the
         :class:`~rolling_disk_env.engine.Bundle` the kernels take."""
-        self._entries = [None] * 2  # the compiled steps, serial or threaded (entry_point)
+        self._entries = [None] * 2  # the compiled step (_serial), and engine.step_shares with its step (_threaded)
         resets = (self.mask, self._rngs, self.uniforms, self.no_state)
         self._arrays = engine.bundle(self.shares(), self.setup, resets)
 
@@ -547,24 +548,38 @@ class DiskBatch:
 
     def _call(self, stepping: bool, actions: np.ndarray, out: Outputs) -> int:
         """Calls the compiled step (``stepping``: a step, then the resets of :attr:`mask`) or reset (the resets
-        alone), on the threads or not as :attr:`choice` says (which times the steps)."""
-        arguments = (actions, self._arrays, out.shares, stepping)
+        alone), on the shares one after the other or on numba's threads, a share each, as :attr:`choice` says (which
+        times the steps)."""
+        arguments = (actions, self._arrays, out.shares, stepping, (0, self.threads))
         if self.choice is None:
-            return self._entry(False, arguments)(*arguments)
-        if not stepping:
-            return self._entry(self.choice.threaded, arguments)(*arguments)
-        threaded = self.choice.next()
+            return self._serial(arguments)(*arguments)
+        threaded = self.choice.next() if stepping else self.choice.threaded
         start = time.perf_counter()
-        bad = self._entry(threaded, arguments)(*arguments)
-        self.choice.record(threaded, time.perf_counter() - start)
+        if threaded:
+            on_threads, step = self._threaded(arguments)
+            bad = on_threads(step, *arguments[:-1])
+        else:
+            bad = self._serial(arguments)(*arguments)
+        if stepping:
+            self.choice.record(threaded, time.perf_counter() - start)
         return bad
 
-    def _entry(self, threaded: bool, arguments: tuple):
-        """The compiled serial or threaded step (:func:`entry_point`), for ``arguments`` of the types every call
-        passes: ``actions`` a C-contiguous float32 (N, A) array (a reset passes one of no rows), the batch's bundle,
-        outputs of :meth:`outputs`, and whether to step."""
-        entry = self._entries[threaded]
-        if entry is None:
-            name = f"{self.description}{', threaded' if threaded else ''}"
-            entry = self._entries[threaded] = entry_point(self._steps[threaded], arguments, name)
-        return entry
+    def _serial(self, arguments: tuple):
+        """The compiled step (:func:`entry_point`), for ``arguments`` of the types every call passes: ``actions`` a
+        C-contiguous float32 (N, A) array (a reset passes one of no rows), the batch's bundle, outputs of
+        :meth:`outputs`, whether to step, and the range of shares (two ints)."""
+        if self._entries[0] is None:
+            self._entries[0] = entry_point(self._step, arguments, self.description)
+        return self._entries[0]
+
+    def _threaded(self, arguments: tuple) -> tuple:
+        """:func:`~rolling_disk_env.engine.step_shares` compiled (:func:`entry_point`) for the compiled step as a
+        first-class function (:func:`~rolling_disk_env.jit.first_class`: it calls the step by its address, so it
+        compiles in a second or two, once for every configuration), and that function: what it takes as first
+        argument, before ``arguments`` less the range of shares."""
+        if self._entries[1] is None:
+            self._serial(arguments)
+            step = first_class(self._step, arguments)
+            entry = entry_point(engine.step_shares, (step, *arguments[:-1]), "the call of a batch's shares on threads")
+            self._entries[1] = (entry, step)
+        return self._entries[1]
