@@ -6,7 +6,7 @@ DIR (default ``benchmarks/results``).
 *CPU*: each configuration (task x contact x integrator) in a fresh process with an empty ``NUMBA_CACHE_DIR`` (and an
 empty ``HOME``): a single env's first ``reset`` and ``step`` (what compiles there), then a vector env's of 8 disks
 (what it compiles beyond that), then a vector env's of 4,096 disks, its ``reset`` and 8 steps (where there are several
-cores, it splits into a share a thread and its 4th step is the first on the threads: what that compiles beyond the
+cores, it splits into a share a thread, and its reset and steps 4 to 6 run on the threads: what that compiles beyond the
 rest, with the disks' own time), each timed in wall seconds and in the CPU seconds of the process (user + system,
 which a shared machine's other jobs disturb less). By default a sample of the grid: every task with ``rk4``, the
 other integrators on ``upright``, the ``"sliding"`` and ``"coulomb"`` contacts on ``upright`` and ``circle``;
@@ -55,7 +55,7 @@ times["vector"] = (time.perf_counter() - start, cpu() - spent)
 start, spent = time.perf_counter(), cpu()
 envs = gym.make_vec("RollingDisk-v0", num_envs=4096, vectorization_mode="vector_entry_point", **kwargs)
 envs.reset(seed=0)
-for _ in range(8):  # ThreadChoice tries each way for 3 steps: the threads from the 4th
+for _ in range(8):  # ThreadChoice tries each way for 3 steps: the calling thread first, then the threads
     envs.step(np.zeros(envs.action_space.shape, dtype=np.float32))
 times["threads"] = (time.perf_counter() - start, cpu() - spent)
 print(json.dumps(times))

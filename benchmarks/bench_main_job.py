@@ -9,7 +9,7 @@ job), timed from its start to its exit: imports, compiling or loading the kernel
 100 seeded episodes. *Cold*: ``NUMBA_CACHE_DIR`` an empty folder and ``HOME`` an empty one, so that every kernel
 compiles (a fresh install's first run); *warm*: the same cache again, :data:`WARM_RUNS` runs, their median. Where
 rsl-rl-lib is installed (the ``[gpu]`` extra), ``python train.py --device cpu`` (rsl_rl's PPO on the torch vector
-env, 4096 disks, the CPU engine) is timed once after them: its threaded kernels for 4096 disks compile in it.
+env, 4096 disks, the CPU engine) is timed once after them: its kernels compile in it.
 ``--against FILE`` (hyperparameters in ``agents/hyperparams/ppo.yml``'s format, e.g. the file before a change of
 settings: ``git show <commit>:agents/hyperparams/ppo.yml > FILE``) times ``python train.py --config FILE`` warm too,
 each of its runs right after one of the main job's, and gives the ratio of the medians: a comparison that a slow spell

@@ -402,7 +402,8 @@ def step_shares(step, actions, arrays, out, stepping) -> int:
     """Calls a task's compiled step (``_generated/<task>.py``, ``step_<method>(actions, arrays, out, stepping,
     shares)``), taken as a first-class function (:func:`rolling_disk_env.jit.first_class`), on each share of the
     batch at once, a share per numba thread; returns what it returns (each call checks every action, so all return the
-    first disk with a non-finite action, or -1)."""
+    first disk with a non-finite action, or -1). A step called through its address must not raise: numba's C wrapper
+    would take the GIL on a worker thread while the calling thread holds it (the generated steps raise nothing)."""
     shares = arrays.batch[0].shape[1]
     bad = np.empty(shares, dtype=np.int64)
     for k in prange(shares):

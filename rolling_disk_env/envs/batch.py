@@ -575,7 +575,7 @@ class DiskBatch:
     def _threaded(self, arguments: tuple) -> tuple:
         """:func:`~rolling_disk_env.engine.step_shares` compiled (:func:`entry_point`) for the compiled step as a
         first-class function (:func:`~rolling_disk_env.jit.first_class`: it calls the step by its address, so it
-        compiles in a second or two, once for every configuration), and that function: what it takes as first
+        compiles in a second or two, once, for every configuration), and that function: what it takes as first
         argument, before ``arguments`` less the range of shares."""
         if self._entries[1] is None:
             self._serial(arguments)
