@@ -17,6 +17,10 @@ from rolling_disk_env.integrators import simulate_contact
 from rolling_disk_env.tasks import TASKS
 from tests import reference
 
+# The file's tests compile each task's contact step (20 to 35 s each, nothing cached): in one pytest-xdist worker, so
+# that the other does not wait for the same kernels (batch.py's compile lock) but runs other tests meanwhile.
+pytestmark = pytest.mark.xdist_group("contact steps")
+
 PARAMS = rd.DiskParams()
 CIRCLE = np.array([2, 0, 0, 0.5, 0, steady_motion(0.5, 1.0), 0, 1.0])
 """The paper's steady circle (scenario 2): its contact needs a friction coefficient of 0.356."""

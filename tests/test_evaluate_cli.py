@@ -40,6 +40,7 @@ def runs(tmp_path_factory) -> dict[str, Path]:
     return folders
 
 
+@pytest.mark.xdist_group("evaluate_cli runs")  # one worker trains the module fixture's runs, once
 def test_a_model_is_evaluated_on_its_runs_task(runs, capsys):
     # The circle run's model reads 8 observations: evaluated on upright's 4 it used to fail deep inside torch.
     result = evaluate_main(["--model", str(runs["circle"] / "model.zip"), "--episodes", "2"])
@@ -58,6 +59,7 @@ def test_the_runs_env_settings_are_read(tmp_path):
     assert run_settings(tmp_path / "model.zip") == ("circle", {})
 
 
+@pytest.mark.xdist_group("evaluate_cli runs")  # one worker trains the module fixture's runs, once
 def test_a_task_that_contradicts_the_run_is_a_one_line_error(runs):
     process = run("--model", str(runs["upright"] / "model.zip"), "--task", "circle")
     assert process.returncode == 2

@@ -112,6 +112,7 @@ def zoo_runs(tmp_path_factory):
     return folder, runs, outputs
 
 
+@pytest.mark.xdist_group("zoo")  # one worker runs the module's fixture, once
 @pytest.mark.parametrize(("algo", "env_id"), ZOO_RUNS)
 def test_rl_zoo_trains_with_the_project_files(zoo_runs, algo, env_id):
     folder, runs, outputs = zoo_runs
