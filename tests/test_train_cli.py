@@ -16,8 +16,13 @@ import rolling_disk_env as rd
 import train
 from agents import evaluate
 from agents.evaluate import ALGORITHMS
+from agents.training import EVAL_EVERY, load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
+MAIN_JOB_ENVS = load_hyperparams(train.HYPERPARAMS / "ppo.yml", rd.TASK_IDS["upright"])["n_envs"]
+FIRST_EVALUATION = f"{math.ceil(EVAL_EVERY / MAIN_JOB_ENVS) * MAIN_JOB_ENVS} steps: eval return "
+"""How the main job's first evaluation line starts: at the first step count from EVAL_EVERY on (the steps come
+n_envs at a time)."""
 
 
 HEAVY = {"numpy", "gymnasium", "numba", "torch", "stable_baselines3"}
@@ -134,7 +139,7 @@ def test_a_run_prints_its_directory_and_every_evaluation(tmp_path):
     lines = process.stdout.strip().splitlines()
     assert lines[0] == f"run directory: {out}" and lines[-1] == f"run directory: {out}"
     # Off a terminal, each evaluation is a line (on a terminal, the progress bar's postfix shows it).
-    assert any(line.startswith("10000 steps: eval return ") and "success" in line for line in lines)
+    assert any(line.startswith(FIRST_EVALUATION) and "success" in line for line in lines)
     assert "rollout/" in process.stdout  # --verbose 1: SB3's training logs
     for name in ("model.zip", "best_model.zip", "vecnormalize.pkl", "config.yml", "command.txt", "results.md"):
         assert (out / name).exists(), name
@@ -161,7 +166,7 @@ def test_ctrl_c_saves_evaluates_and_prints_the_run_directory(tmp_path):
     )
     try:
         assert process.stdout.readline() == f"run directory: {out}\n"
-        assert process.stdout.readline().startswith("10000 steps: eval return")
+        assert process.stdout.readline().startswith(FIRST_EVALUATION)
         process.send_signal(signal.SIGINT)
         stdout, stderr = process.communicate(timeout=120)
     finally:

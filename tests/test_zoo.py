@@ -39,8 +39,8 @@ def test_the_tuned_values_are_kept():
     upright = load_hyperparams(HYPERPARAMS / "ppo.yml", "RollingDiskUpright-v0")
     ppo = algorithm_kwargs("ppo", upright)
     assert ppo["policy_kwargs"] == {"net_arch": [64, 64], "activation_fn": nn.Tanh, "log_std_init": -1.0}
-    assert (ppo["n_steps"], ppo["batch_size"], ppo["learning_rate"], ppo["clip_range"]) == (128, 512, 6e-4, 0.2)
-    assert (upright["n_timesteps"], upright["n_envs"], upright["n_epochs"]) == (6e4, 16, 10)
+    assert (ppo["n_steps"], ppo["batch_size"], ppo["learning_rate"], ppo["clip_range"]) == (64, 1024, 1e-3, 0.2)
+    assert (upright["n_timesteps"], upright["n_envs"], upright["n_epochs"]) == (6e4, 32, 10)
     circle = load_hyperparams(HYPERPARAMS / "ppo.yml", "RollingDiskCircle-v0")
     assert (circle["n_timesteps"], circle["n_envs"], circle["n_steps"], circle["batch_size"]) == (5e5, 8, 256, 256)
     assert (circle["learning_rate"], circle["n_epochs"], circle["normalize"]) == (3e-4, 10, True)
