@@ -30,7 +30,8 @@ def pytest_configure(config):
     ``xdist_group`` run in one worker. So the three files that need the SymPy derivation derive it once, a module
     fixture that several tests share (the zoo's trainings) runs once, and the tests that compile the same costly
     kernels (the contact steps) do not meet in two workers, one of them idle while the other compiles (the compile
-    lock of ``rolling_disk_env.envs.batch``). The largest groups start first, a worker each.
+    lock of ``rolling_disk_env.envs.batch``). pytest-xdist hands out the groups with the most tests first, one
+    to each worker.
     Set here rather than in ``addopts``, which would be an error where pytest-xdist is not installed: the controller
     schedules by group, and each worker (told so in :func:`pytest_configure_node`) names its tests' groups."""
     if getattr(config.option, "dist", "no") == "load":

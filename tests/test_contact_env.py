@@ -17,8 +17,9 @@ from rolling_disk_env.integrators import simulate_contact
 from rolling_disk_env.tasks import TASKS
 from tests import reference
 
-# The file's tests compile each task's contact step (20 to 35 s each, nothing cached): in one pytest-xdist worker, so
-# that the other does not wait for the same kernels (batch.py's compile lock) but runs other tests meanwhile.
+# The file's tests compile each task's contact step (20 to 40 s each, with a cold cache): in one pytest-xdist worker
+# (with test_goto's contact test), so that the other does not wait for the same kernels (batch.py's compile lock) but
+# runs other tests meanwhile.
 pytestmark = pytest.mark.xdist_group("contact steps")
 
 PARAMS = rd.DiskParams()

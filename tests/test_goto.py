@@ -140,6 +140,7 @@ def test_progress_is_the_rate_at_which_the_distance_shrinks():
             assert info["reward_progress"] == pytest.approx(-(after - before) / 0.02 / speed, abs=0.03)
 
 
+@pytest.mark.xdist_group("contact steps")  # goto's contact step: compiled in test_contact_env's worker
 @pytest.mark.parametrize(
     ("contact", "mu"),
     [("sliding", 0.0), ("coulomb", 0.05)],
