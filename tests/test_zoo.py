@@ -91,7 +91,6 @@ ZOO_DRIVER = """
 import json, sys, traceback
 from rl_zoo3.train import train
 
-failed = False
 for argv in sys.argv[1:]:
     print("zoo run:", argv, flush=True)
     sys.argv = ["rl_zoo3.train", *json.loads(argv)]
@@ -100,8 +99,6 @@ for argv in sys.argv[1:]:
         print("zoo run passed:", argv, flush=True)
     except (Exception, SystemExit):
         traceback.print_exc(file=sys.stdout)
-        failed = True
-sys.exit(failed)
 """
 """rl_zoo3's ``train`` (what ``python -m rl_zoo3.train`` runs) for each command line it is given (a JSON list), one
 after the other in one process, which imports torch, SB3 and the zoo once instead of once a run (4 s of the 7 to 11 a
