@@ -13,10 +13,11 @@ learner runs in this process, on the CPU.
 
 Hyperparameters are those of the task's block in ``agents/hyperparams/ppo.yml`` (SB3's PPO), under RLlib's names
 (:data:`RLLIB_NAMES`): an iteration collects ``n_steps`` steps from every sub-env, as an SB3 rollout does, and
-runs ``n_epochs`` epochs of minibatches of ``batch_size``; ``policy_kwargs`` gives the hidden layers and their
-activation, for separate policy and value networks with a state-independent log std as in SB3. Not carried over:
-``normalize`` (the observations are of order 1 without it) and ``log_std_init``. The default ``--iterations`` make
-the block's ``n_timesteps``.
+runs ``n_epochs`` epochs of minibatches of ``batch_size``, or of the iteration's whole batch where it is smaller
+(RLlib refuses a minibatch larger than its train batch: ``upright``'s 1024 against 8 disks x 64 steps by default; the
+run says so); ``policy_kwargs`` gives the hidden layers and their activation, for separate policy and value networks
+with a state-independent log std as in SB3. Not carried over: ``normalize`` (the observations are of order 1 without
+it) and ``log_std_init``. The default ``--iterations`` make the block's ``n_timesteps``.
 
 The run directory (``--out``) receives ``checkpoint/`` (the whole algorithm: ``--restore`` continues from it, and
 :func:`load_policy` reads its policy without Ray) and ``results.md``: the seeded evaluation table of train.py
@@ -90,6 +91,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     except ConfigError as error:
         parser.error(f"{config}: {error}")
     args.batch = args.n_steps * max(1, args.env_runners) * args.envs_per_runner
+    if args.training["minibatch_size"] > args.batch:
+        print(
+            f"rllib_train: minibatches of {args.batch} steps, the iteration's whole batch ({args.n_steps} steps x "
+            f"{max(1, args.env_runners) * args.envs_per_runner} disks), instead of the block's batch_size "
+            f"{args.training['minibatch_size']}"
+        )
+        args.training["minibatch_size"] = args.batch
     if args.iterations is None:
         args.iterations = math.ceil(float(block["n_timesteps"]) / args.batch)
     return args

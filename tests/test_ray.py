@@ -68,9 +68,11 @@ def test_two_trial_sweep_writes_its_table_and_a_best_config_that_train_py_trains
 
 def test_asha_stops_the_trial_whose_return_falls_behind(tmp_path):
     # Two trials one after the other (2 CPUs each): learning rate 1e-3 holds the disk up by 20k steps, learning
-    # rate 0 never learns; ASHA's one rung at 20k steps stops the second.
+    # rate 0 never learns; ASHA's one rung at 20k steps stops the second. The rollouts and minibatches are fixed here,
+    # upright's block before the main job's (16 envs x 128 steps, 512): the main job's (32 x 64, 1024) learns later
+    # (with it, ASHA let learning rate 0 run to the end), and with 16 envs an evaluation falls on 20k steps.
     out = tmp_path / "sweep"
-    search = "learning_rate: {grid_search: [1.0e-3, 0.0]}\n"
+    search = "learning_rate: {grid_search: [1.0e-3, 0.0]}\nn_envs: 16\nn_steps: 128\nbatch_size: 512\n"
     flags = ("--samples", "1", "--timesteps", "30000", "--grace-period", "20000", "--cpus-per-trial", "2")
     result = run_sweep(out, *flags, search=search)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]

@@ -144,3 +144,16 @@ def test_rllib_iterations_default_to_the_blocks_timesteps(tmp_path):
     block = load_hyperparams(HYPERPARAMS / "ppo.yml", rd.TASK_IDS["upright"])
     assert args.batch == block["n_steps"] * 2 * 4
     assert args.iterations == math.ceil(block["n_timesteps"] / args.batch)
+
+
+@pytest.mark.parametrize(("runners", "envs"), [(1, 8), (0, 1), (4, 64)])
+def test_rllib_minibatches_are_at_most_an_iterations_batch(runners, envs, tmp_path, capsys):
+    # RLlib raises where minibatch_size > train_batch_size_per_learner: upright's block (1024) against the default
+    # runner's 8 disks x 64 steps did.
+    block = load_hyperparams(HYPERPARAMS / "ppo.yml", rd.TASK_IDS["upright"])
+    flags = ["--env-runners", str(runners), "--envs-per-runner", str(envs), "--out", str(tmp_path)]
+    args = rllib_train.parse_args(flags)
+    assert args.batch == block["n_steps"] * max(1, runners) * envs
+    assert args.training["minibatch_size"] == min(block["batch_size"], args.batch)
+    said = capsys.readouterr().out
+    assert (f"minibatches of {args.batch} steps" in said) == (block["batch_size"] > args.batch)
