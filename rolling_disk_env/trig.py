@@ -40,19 +40,19 @@ _ROUND = 6755399441055744.0
 
 
 @inline_kernel
-def floor(y):
-    """``np.floor(y)`` in IEEE additions and a comparison only: the nearest integer by adding and subtracting 1.5 *
-    2^52, less one where that rounded up (doubles from 2^51 on are integers already). ``np.floor`` has no lowering
-    for the GPU (numba-cuda); this compiles for both targets and vectorizes on AVX2 as on AVX-512."""
-    nearest = (y + _ROUND) - _ROUND
-    nearest = nearest - 1.0 if nearest > y else nearest
-    return nearest if abs(y) < 2251799813685248.0 else y
+def nearest(y):
+    """The integer nearest to ``y``, ties to even (``np.rint(y)``) for ``|y| < 2^51``: two IEEE additions, which
+    compile for the CPU and the GPU (numba-cuda has no lowering of ``np.rint`` or ``np.floor``) and vectorize on AVX2 as
+    on AVX-512. Beyond 2^51, where :func:`sincos` promises no accuracy (:data:`MAX_ANGLE`), it returns an integer within
+    ``1 + ulp(y)`` of ``y``; inf and NaN as they are. The JAX reading calls ``jnp.rint``, which is exact in float32 too
+    (:mod:`rolling_disk_env.jax.reading`)."""
+    return (y + _ROUND) - _ROUND
 
 
 @inline_kernel
 def sincos(x):
     """``(sin(x), cos(x))`` for an angle ``x`` in rad (see the module docstring for the accuracy)."""
-    k = floor(x * _TWO_OVER_PI + 0.5)
+    k = nearest(x * _TWO_OVER_PI)
     r = (((x - k * _PI_OVER_2[0]) - k * _PI_OVER_2[1]) - k * _PI_OVER_2[2]) - k * _PI_OVER_2[3]
     z = r * r
     sine = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
@@ -60,9 +60,11 @@ def sincos(x):
     half = 0.5 * z
     w = 1.0 - half
     cosine = w + (((1.0 - w) - half) + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6))))))
-    # x = k pi/2 + r: turn (sin r, cos r) by the quadrant k mod 4.
-    quadrant = k - 4.0 * floor(0.25 * k)
-    odd = (quadrant == 1.0) | (quadrant == 3.0)
+    # x = k pi/2 + r: turn (sin r, cos r) by the quadrant, k mod 4, here q = k - 4 nearest(k / 4) in -2..2 (-2 and 2
+    # are the same quadrant: a tie of k / 4 rounds either way).
+    q = k - 4.0 * nearest(0.25 * k)
+    odd = abs(q) == 1.0
+    half_turn = abs(q) == 2.0
     s = cosine if odd else sine
     c = sine if odd else cosine
-    return (-s if quadrant >= 2.0 else s), (-c if (quadrant == 1.0) | (quadrant == 2.0) else c)
+    return (-s if half_turn | (q == -1.0) else s), (-c if half_turn | (q == 1.0) else c)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rolling_disk_env.jit import kernel
-from rolling_disk_env.trig import MAX_ANGLE, floor, sincos
+from rolling_disk_env.trig import MAX_ANGLE, nearest, sincos
 
 
 @kernel
@@ -46,23 +46,44 @@ def test_sincos_interpreted_is_sincos_compiled():
 
 
 @kernel
-def _floor_many(values, out):
+def _nearest_many(values, out):
     for i in range(values.shape[0]):
-        out[i] = floor(values[i])
+        out[i] = nearest(values[i])
 
 
-def test_floor_is_numpys_floor():
+def test_nearest_is_numpys_rint_below_2_to_51():
     rng = np.random.default_rng(2)
     values = np.concatenate(
         [
             rng.uniform(-1e6, 1e6, 100_000),
             rng.uniform(-3, 3, 10_000),
-            np.arange(-1000, 1000) * 0.5,  # integers and halves
-            np.nextafter(np.arange(-50.0, 50.0), np.inf),
-            np.nextafter(np.arange(-50.0, 50.0), -np.inf),
-            [0.0, -0.0, 2.0**51 - 0.5, 2.0**51 + 1, -(2.0**51) - 1, 2.0**60, 1e300, -1e300, np.inf, -np.inf, np.nan],
+            np.arange(-1000, 1000) * 0.5,  # integers and halves: ties go to the even neighbour
+            np.nextafter(np.arange(-50.0, 50.0) + 0.5, np.inf),
+            np.nextafter(np.arange(-50.0, 50.0) + 0.5, -np.inf),
+            [0.0, -0.0, 5e-324, -5e-324, 2.0**51 - 0.5, 2.0**51 - 1.5, -(2.0**51) + 0.5, 2.0**50 + 0.5],
         ]
     )
     out = np.empty_like(values)
-    _floor_many(values, out)
-    np.testing.assert_array_equal(out, np.floor(values))
+    _nearest_many(values, out)
+    np.testing.assert_array_equal(out, np.rint(values))
+    np.testing.assert_array_equal(np.array([nearest.py_func(v) for v in values[::97]]), out[::97])
+
+
+def test_nearest_beyond_2_to_51_is_an_integer_near_y():
+    rng = np.random.default_rng(3)
+    magnitudes = 2.0 ** rng.uniform(51, 1000, 2000)
+    values = np.concatenate([rng.choice([-1.0, 1.0], 2000) * magnitudes, [2.0**51, 2.0**52 + 1]])
+    out = np.empty_like(values)
+    _nearest_many(values, out)
+    assert np.all(out == np.rint(out))
+    assert np.all(np.abs(out - values) <= 1.0 + np.spacing(np.abs(values)))
+    special, out = np.array([np.inf, -np.inf, np.nan]), np.empty(3)
+    _nearest_many(special, out)
+    np.testing.assert_array_equal(out, special)
+
+
+def test_sincos_of_inf_and_nan_is_nan():
+    angles = np.array([np.inf, -np.inf, np.nan])
+    sines, cosines = np.empty(3), np.empty(3)
+    _sincos_many(angles, sines, cosines)
+    assert np.isnan(sines).all() and np.isnan(cosines).all()

@@ -397,7 +397,7 @@ class DiskBatch:
         self.method = config.integrator if config.contact == "rolling" else "contact"
         """The step's method: the integrator under the ``"rolling"`` contact, else ``"contact"``."""
         self._step = getattr(steps, f"step_{self.method}")
-        self.description = f"task {task.name!r}'s step and reset ({self.method}, {config.contact} contact)"
+        self.description = f"the step and reset of task {task.name!r} ({self.method}, {config.contact} contact)"
         """What the kernels compute, as the compile log names them (:func:`entry_point`)."""
         self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
         """The first row of ``engine.SLIDING_INFO`` in the info block (None under the ``"rolling"`` contact)."""

@@ -10,7 +10,7 @@ and tuples of floats, which numba compiles. :func:`traced` reads the same source
 * ``and``, ``or`` and ``not`` become their element-wise forms (``&``, ``|``, ``~`` on booleans);
 * a guard ``if c: return a`` followed by the rest of the body becomes ``where(c, a, <the rest's value>)``;
 * ``min``, ``max``, ``math.sqrt``, ``math.isfinite``, ... become ``jax.numpy``'s functions, and
-  :func:`rolling_disk_env.trig.floor` (an IEEE trick for doubles) ``jnp.floor``, exact in float32 as in float64;
+  :func:`rolling_disk_env.trig.nearest` (an IEEE trick for doubles) ``jnp.rint``, exact in float32 as in float64;
 * an iteration ``for _ in range(n):`` whose body assigns names and leaves by ``if c: break`` (the Newton solve of
   :func:`rolling_disk_env.engine.steady_circle`, which the ``circle`` task's reset calls) becomes its ``n`` copies
   (unrolled when JAX traces it), each holding the names bound before the loop (``where``) once a ``c`` has held:
@@ -212,8 +212,8 @@ def _value(value):
         return types.SimpleNamespace(**{**vars(math), **_MATH})
     if id(value) in _REPLACED:
         return _REPLACED[id(value)]
-    if value is trig.floor:
-        return jnp.floor
+    if value is trig.nearest:
+        return jnp.rint
     if isinstance(value, types.ModuleType):
         return _Module(value)
     if hasattr(value, "py_func") or (inspect.isfunction(value) and value.__module__.startswith("rolling_disk_env.")):
