@@ -90,12 +90,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         args.env_kwargs = check_env_kwargs(args.task, block)
     except ConfigError as error:
         parser.error(f"{config}: {error}")
-    args.batch = args.n_steps * max(1, args.env_runners) * args.envs_per_runner
+    disks = max(1, args.env_runners) * args.envs_per_runner
+    args.batch = args.n_steps * disks
     if args.training["minibatch_size"] > args.batch:
         print(
             f"rllib_train: minibatches of {args.batch} steps, the iteration's whole batch ({args.n_steps} steps x "
-            f"{max(1, args.env_runners) * args.envs_per_runner} disks), instead of the block's batch_size "
-            f"{args.training['minibatch_size']}"
+            f"{disks} disks), instead of the block's batch_size {args.training['minibatch_size']}"
         )
         args.training["minibatch_size"] = args.batch
     if args.iterations is None:
