@@ -313,24 +313,24 @@ def action_torques(actions, actuators, lanes, k, disks):
             lanes[row, k, i] = limit * value
 
 
-@kernel
-def period_start(x, kept, substeps):
-    """A disk's state at the start of the control period: ``x``, its state before the last substep, when there is
-    one substep; else ``kept``, its state kept by :func:`remember` (both read, then one chosen: no branch in a loop
-    over disks)."""
-    one = substeps == 1
-    return (
-        x[0] if one else kept[0], x[1] if one else kept[1], x[2] if one else kept[2], x[3] if one else kept[3],
-        x[4] if one else kept[4], x[5] if one else kept[5], x[6] if one else kept[6], x[7] if one else kept[7],
-    )  # fmt: skip
-
-
 @inline_kernel
 def remember(lanes, k):
     """Keeps the states of the disks of share k in their rows PREVIOUS (before the substeps of a period)."""
     for j in range(8):  # the loop over disks innermost, where the compiler vectorizes it
         for i in range(lanes.shape[2]):
             lanes[PREVIOUS + j, k, i] = lanes[STATE + j, k, i]
+
+
+@inline_kernel
+def restore(lanes, codes, k):
+    """Puts the states kept by :func:`remember` back in the disks of share k whose last substep left the model's
+    domain (code OUT_OF_DOMAIN, :func:`in_domain`), so that such a step ends where its period started. The loop of
+    the last substep checks the domain against the state before that substep, and so reads no rows PREVIOUS: with one
+    substep, the default, they are not read at all."""
+    for j in range(8):  # the loop over disks innermost, where the compiler vectorizes it
+        for i in range(lanes.shape[2]):
+            left = codes[k, i] == OUT_OF_DOMAIN
+            lanes[STATE + j, k, i] = lanes[PREVIOUS + j, k, i] if left else lanes[STATE + j, k, i]
 
 
 @kernel

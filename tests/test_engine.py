@@ -233,6 +233,34 @@ def test_the_vector_envs_steps_are_the_model_apis_to_the_last_bit(integrator, su
     assert compared >= 60
 
 
+@pytest.mark.parametrize("substeps", [1, 3])
+def test_a_step_that_leaves_the_domain_ends_where_its_period_started(substeps):
+    # Disk 0 leans past LEAN_LIMIT within the period (dtheta 100 rad/s from theta = 1 rad); its step ends with
+    # OUT_OF_DOMAIN at the state the period started from, not at a substep's, whatever the substeps. Disks 1 and 2
+    # step on as the model API steps them.
+    env = rd.RollingDiskVectorEnv(num_envs=3, substeps=substeps, task_options={"fall_lean": rd.LEAN_LIMIT - 1e-3})
+    given = np.array(
+        [[0.5, -0.2, 0.3, 1.0, 0.1, 2.0, 100.0, 0.5], [0, 0, 0, 0.1, 0, 2.0, 0, 0], [1, 2, 0, -0.1, 1, 3, 0, 0]]
+    )
+    env.reset(seed=0, options={"state": given})
+    actions = np.array([[0.5, -0.5], [0.2, 0.1], [-0.3, 0.4]], dtype=np.float32)
+    _, _, terminated, _, info = env.step(actions)
+    assert info["termination"].tolist() == [
+        rd.Termination.OUT_OF_DOMAIN,
+        rd.Termination.NONE,
+        rd.Termination.NONE,
+    ]
+    assert terminated.tolist() == [True, False, False]
+    np.testing.assert_array_equal(info["state"][0], given[0])
+    batch, dt = env._batch, env.unwrapped.config.dt / substeps
+    states, status = np.ascontiguousarray(given[1:]), np.zeros(2, dtype=np.int8)
+    torques = np.ascontiguousarray(batch.lanes[engine.TAU_SPIN : engine.TAU_STEER + 1, 1:3].T)
+    disks = np.ascontiguousarray(batch.disks.T[1:3])
+    for _ in range(substeps):
+        engine.advance(engine.METHODS.index("rk4"), states, torques, disks, dt, np.full(2, dt), 1e-9, 1e-9, status)
+    np.testing.assert_array_equal(info["state"][1:], states)
+
+
 def test_a_child_process_steps_on_one_thread():
     # SubprocVecEnv's children share the cores with their siblings: each steps its batch on the calling thread.
     with multiprocessing.get_context("spawn").Pool(1) as pool:

@@ -235,14 +235,12 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         )
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         new = kernels.state_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
-        kept = (
-            lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
-            lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
-        )
-        x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
+        x, code = engine.in_domain(x, new, RUNNING)
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
         codes[k, i] = code
+    if substeps > 1:  # a disk whose last substep left the domain goes back to the start of its period
+        engine.restore(lanes, codes, k)
     # The checks, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
     # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
     for i in range(lanes.shape[2]):
@@ -370,14 +368,12 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         )
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         new = kernels.state_symplectic_euler_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
-        kept = (
-            lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
-            lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
-        )
-        x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
+        x, code = engine.in_domain(x, new, RUNNING)
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
         codes[k, i] = code
+    if substeps > 1:  # a disk whose last substep left the domain goes back to the start of its period
+        engine.restore(lanes, codes, k)
     # The checks, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
     # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
     for i in range(lanes.shape[2]):
@@ -505,14 +501,12 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         )
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         new = kernels.state_rk4_step_from(x, trig, dt, tau_spin, tau_steer, m, g, r)
-        kept = (
-            lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
-            lanes[PREVIOUS + 4, k, i], lanes[PREVIOUS + 5, k, i], lanes[PREVIOUS + 6, k, i], lanes[PREVIOUS + 7, k, i],
-        )
-        x, code = engine.in_domain(engine.period_start(x, kept, substeps), new, RUNNING)
+        x, code = engine.in_domain(x, new, RUNNING)
         lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i] = x[0], x[1], x[2], x[3]
         lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i] = x[4], x[5], x[6], x[7]
         codes[k, i] = code
+    if substeps > 1:  # a disk whose last substep left the domain goes back to the start of its period
+        engine.restore(lanes, codes, k)
     # The checks, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
     # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
     for i in range(lanes.shape[2]):
