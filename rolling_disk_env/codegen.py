@@ -588,7 +588,7 @@ flags, from the states and codes the loops before stored."""
 HANDOVER = """
 {store_state}
         codes[k, i] = code{restore}
-    # The checks, in a second loop over the disks, from the states and codes the first stored: two loops of fewer
+    # The checks, in a loop of their own over the disks, from the states and codes stored above: two loops of fewer
     # live values each run faster than one (measured on the fused upright step: 64 against 68 ns a disk).
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]

@@ -234,11 +234,14 @@ def test_the_vector_envs_steps_are_the_model_apis_to_the_last_bit(integrator, su
 
 
 @pytest.mark.parametrize("substeps", [1, 3])
-def test_a_step_that_leaves_the_domain_ends_where_its_period_started(substeps):
+@pytest.mark.parametrize("integrator", ["euler", "symplectic_euler", "rk4"])
+def test_a_step_that_leaves_the_domain_ends_where_its_period_started(integrator, substeps):
     # Disk 0 leans past LEAN_LIMIT within the period (dtheta 100 rad/s from theta = 1 rad); its step ends with
     # OUT_OF_DOMAIN at the state the period started from, not at a substep's, whatever the substeps. Disks 1 and 2
     # step on as the model API steps them.
-    env = rd.RollingDiskVectorEnv(num_envs=3, substeps=substeps, task_options={"fall_lean": rd.LEAN_LIMIT - 1e-3})
+    env = rd.RollingDiskVectorEnv(
+        num_envs=3, integrator=integrator, substeps=substeps, task_options={"fall_lean": rd.LEAN_LIMIT - 1e-3}
+    )
     given = np.array(
         [[0.5, -0.2, 0.3, 1.0, 0.1, 2.0, 100.0, 0.5], [0, 0, 0, 0.1, 0, 2.0, 0, 0], [1, 2, 0, -0.1, 1, 3, 0, 0]]
     )
@@ -257,7 +260,8 @@ def test_a_step_that_leaves_the_domain_ends_where_its_period_started(substeps):
     torques = np.ascontiguousarray(batch.lanes[engine.TAU_SPIN : engine.TAU_STEER + 1, 1:3].T)
     disks = np.ascontiguousarray(batch.disks.T[1:3])
     for _ in range(substeps):
-        engine.advance(engine.METHODS.index("rk4"), states, torques, disks, dt, np.full(2, dt), 1e-9, 1e-9, status)
+        engine.advance(engine.METHODS.index(integrator), states, torques, disks, dt, np.full(2, dt), 1e-9, 1e-9, status)
+    assert np.all(status == engine.RUNNING)
     np.testing.assert_array_equal(info["state"][1:], states)
 
 
