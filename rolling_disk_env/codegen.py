@@ -965,12 +965,15 @@ def generate_steps(task) -> str:
     track = "\n    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]" if rule == "track" else ""
     steps = []
     for t in TABLEAUS:
-        advance, restore = ("dopri5", "") if t.error else ("fixed", _RESTORE)
-        handover = HANDOVER.replace("{restore}", restore)
-        integrate = _ADVANCE[advance] + handover + _fill(CHECKS_TEMPLATE, rolling_checks)
+        integrate = _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks)
         template = (STEP_TEMPLATE + CALLERS_TEMPLATE).replace("{integrate}", integrate).replace("{outputs}", outputs)
         template = template.replace("{velocity}", rolling_velocity).replace("{track}", track)
-        method = {"{method}": t.name, "{described}": f"with {t.name}", "{reset}": _RESETS["rolling"][0]}
+        method = {
+            "{method}": t.name,
+            "{described}": f"with {t.name}",
+            "{reset}": _RESETS["rolling"][0],
+            "{restore}": "" if t.error else _RESTORE,
+        }
         steps.append(_fill(template, {**step_fields, **method}))
     contact = _fill(
         CONTACT_STEP_TEMPLATE + CALLERS_TEMPLATE,
