@@ -19,10 +19,11 @@ The files are plain Python on floats, readable next to the paper, and what numba
 * ``_generated/<task>.py``, one per task of :data:`rolling_disk_env.tasks.TASKS`: for each integrator, the fused step
   of a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
   (the action's torques; integration and domain check; contact checks and the task's termination,
-  :data:`CHECKS_TEMPLATE`; reward terms, success and observation, :data:`OUTPUTS_LOOP`), with its caller for a range
-  of shares (:data:`CALLERS_TEMPLATE`), and the reset, written from :data:`STEP_TEMPLATE`
-  and :data:`RESET_TEMPLATE`; the step under the ``"sliding"`` and ``"coulomb"`` contacts in its three passes
-  (:data:`CONTACT_STEP_TEMPLATE`: the rolling pass, the hybrid pass of the disks it marked, the outputs).
+  :data:`CHECKS_TEMPLATE`; reward terms, success and observation, :data:`OUTPUTS_LOOP`), and the reset, written
+  from :data:`STEP_TEMPLATE` and :data:`RESET_TEMPLATE` (the CPU calls them through their addresses for a range of
+  shares: :func:`rolling_disk_env.engine.step_range`, compiled once for every task); the step under the
+  ``"sliding"`` and ``"coulomb"`` contacts in its three passes (:data:`CONTACT_STEP_TEMPLATE`: the rolling pass,
+  the hybrid pass of the disks it marked, the outputs).
   Each records a hash of its task module's source, so that the engine refuses steps generated from an older task.
 * ``_generated/cuda.py``: the same steps and resets as CUDA kernels (:func:`generate_cuda`), a GPU thread a disk,
   each a call of a task's share function on a share of one disk (compiled by :mod:`rolling_disk_env.gpu`); the
@@ -666,11 +667,11 @@ that :data:`CONTACT_ROLL` marked go through the period again from its start, swi
 STEP_TEMPLATE = """
 
 @kernel
-def step_{method}_share(k, actions, batch, setup, out, resets):
+def step_{method}_share(k, actions, batch, setup, out):
     \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`{reset}`, while the share's rows are in cache: its action is ignored).
+    last (or only) substep, then each disk's outputs. The caller then starts a new episode in each disk of the mask
+    of its resets (:func:`{reset}`, while the share's rows are in cache).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -686,14 +687,13 @@ def step_{method}_share(k, actions, batch, setup, out, resets):
     engine.action_torques(actions, actuators, lanes, k, disks)
 {integrate}{outputs}
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    {reset}(k, resets, batch, setup, out)
 """
-"""The fused step of one task with one rolling integrator, for a share of a batch of disks (then
-:data:`CALLERS_TEMPLATE`)."""
+"""The fused step of one task with one rolling integrator, for a share of a batch of disks. The CPU calls it, and the
+reset after it, through their addresses (:func:`rolling_disk_env.engine.step_range`); a CUDA kernel by name."""
 
 CONTACT_STEP_TEMPLATE = """
 
-@kernel
+@share_kernel
 def contact_roll_share(k, actions, batch, setup, out):
     \"\"\"The rolling pass of a control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of
     share k: the action's torques, then the substeps of the rolling model and each disk's checks at the end of the
@@ -708,7 +708,7 @@ def contact_roll_share(k, actions, batch, setup, out):
 {roll}
 
 
-@kernel
+@share_kernel
 def contact_hybrid_share(k, batch, setup, out):
     \"\"\"The hybrid pass of a control period under the "sliding" or "coulomb" contact: the disks of share k that
     :func:`contact_roll_share` marked go through the period again from its start, one by one, switching modes
@@ -719,54 +719,29 @@ def contact_hybrid_share(k, batch, setup, out):
 {hybrid}
 
 
-@kernel
-def contact_outputs_share(k, batch, setup, out, resets):
+@share_kernel
+def contact_outputs_share(k, batch, setup, out):
     \"\"\"The end of a control period under the "sliding" or "coulomb" contact, once both passes are done: each disk's
-    reward terms, observation and flags; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_contact_share`).\"\"\"
+    reward terms, observation and flags.\"\"\"
     {unpack}
     settings = {settings}
     max_steps = np.int64(config[MAX_STEPS]){track}{outputs}
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    reset_contact_share(k, resets, batch, setup, out)
 
-
-@share_kernel
-def step_contact_share(k, actions, batch, setup, out, resets):
-    \"\"\"One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
-    its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
-    (:func:`contact_outputs_share`). A GPU runs the three passes as two kernels, so that the disks that slide run the
-    hybrid together (``_generated/cuda.py``).\"\"\"
-    contact_roll_share(k, actions, batch, setup, out)
-    contact_hybrid_share(k, batch, setup, out)
-    contact_outputs_share(k, batch, setup, out, resets)
-"""
-"""The step of one task under the ``"sliding"`` and ``"coulomb"`` contacts, for a share of a batch of disks, in its
-three passes (then :data:`CALLERS_TEMPLATE`)."""
-
-CALLERS_TEMPLATE = """
 
 @kernel
-def step_{method}(actions, arrays, out, stepping, shares):
-    \"\"\"Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_{method}_share`; ``arrays``
-    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
-    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
-    episodes of the resets' mask in those shares (:func:`{reset}`) and returns -1. One compiled function serves a
-    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
-    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread).\"\"\"
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in range(shares[0], shares[1]):
-            {reset}(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in range(shares[0], shares[1]):
-            step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
+def step_contact_share(k, actions, batch, setup, out):
+    \"\"\"One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
+    its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
+    (:func:`contact_outputs_share`); the caller then starts the new episodes (:func:`reset_contact_share`). A GPU runs
+    the passes as two kernels, so that the disks that slide run the hybrid together (``_generated/cuda.py``).\"\"\"
+    contact_roll_share(k, actions, batch, setup, out)
+    contact_hybrid_share(k, batch, setup, out)
+    contact_outputs_share(k, batch, setup, out)
 """
-"""The caller of a share's step, for the shares of a batch in a range: when not stepping, it only starts the episodes
-of the resets' mask."""
+"""The step of one task under the ``"sliding"`` and ``"coulomb"`` contacts, for a share of a batch of disks, in its
+three passes: numba copies each into the step (``share_kernel``), which compiles them once; a CUDA kernel calls them
+by name."""
 
 RESET_TEMPLATE = """
 
@@ -966,7 +941,7 @@ def generate_steps(task) -> str:
     steps = []
     for t in TABLEAUS:
         integrate = _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks)
-        template = (STEP_TEMPLATE + CALLERS_TEMPLATE).replace("{integrate}", integrate).replace("{outputs}", outputs)
+        template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
         template = template.replace("{velocity}", rolling_velocity).replace("{track}", track)
         method = {
             "{method}": t.name,
@@ -976,7 +951,7 @@ def generate_steps(task) -> str:
         }
         steps.append(_fill(template, {**step_fields, **method}))
     contact = _fill(
-        CONTACT_STEP_TEMPLATE + CALLERS_TEMPLATE,
+        CONTACT_STEP_TEMPLATE,
         {
             "{roll}": _fill(CONTACT_ROLL, {"{rolling_checks}": _fill(CHECKS_TEMPLATE, rolling_checks)}),
             "{hybrid}": _fill(CONTACT_HYBRID, {"{hybrid_checks}": _fill(CHECKS_TEMPLATE, hybrid_checks)}),
@@ -1110,11 +1085,13 @@ def {task}_step_{method}(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        {task}.step_{method}_share(np.int64(k), actions, batch, setup, out, resets)
+        {task}.step_{method}_share(np.int64(k), actions, batch, setup, out)
+        {task}.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             {task}.reset_share(np.int64(k), resets, batch, setup, out)
 '''
-"""A step kernel of the ``"rolling"`` contact, for one integrator."""
+"""A step kernel of the ``"rolling"`` contact, for one integrator: the step, the next-step reset (where the resets'
+mask holds the disk), then the same-step one."""
 CUDA_CONTACT_STEP = '''
 
 def {task}_step_contact(arguments):
@@ -1129,7 +1106,8 @@ def {task}_step_contact(arguments):
             queue = control[7]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
-            {task}.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            {task}.contact_outputs_share(np.int64(k), batch, setup, out)
+            {task}.reset_contact_share(np.int64(k), resets, batch, setup, out)
             if engine.device_step_ended(k, out, control, resets[0]):
                 {task}.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
@@ -1145,7 +1123,8 @@ def {task}_step_contact_hybrid(arguments):
     if j < queue[0]:
         k = queue[1 + j]
         {task}.contact_hybrid_share(k, batch, setup, out)
-        {task}.contact_outputs_share(k, batch, setup, out, resets)
+        {task}.contact_outputs_share(k, batch, setup, out)
+        {task}.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             {task}.reset_contact_share(k, resets, batch, setup, out)
 '''

@@ -139,43 +139,51 @@ class BundleType(types.StructRef):
 
 
 class Bundle(structref.StructRefProxy):
-    """A batch's arrays as its kernels take them, built once (:func:`bundle`): ``batch``, the arrays of
-    :class:`BatchArrays` split into shares, ``setup``, those of :class:`SetupArrays`, and ``resets``, those of
-    :class:`ResetArrays` (the batch's own: it writes the disks to reset into their mask), each a plain tuple.
+    """A batch's arrays and compiled functions as the engine's callers take them, built once (:func:`bundle`):
+    ``batch``, the arrays of :class:`BatchArrays` split into shares, ``setup``, those of :class:`SetupArrays`, and
+    ``resets``, those of :class:`ResetArrays` (the batch's own: it writes the disks to reset into their mask), each a
+    plain tuple; ``step`` and ``reset``, the configuration's compiled share functions (``_generated/<task>.py``'s
+    ``step_<method>_share`` and ``reset_share`` or ``reset_contact_share``) as first-class functions
+    (:func:`rolling_disk_env.jit.first_class`).
 
     A compiled function called from Python unboxes each array it is passed (reads its shape, strides and data
     pointer), about 0.1 us an array: the twelve arrays of a batch and its settings cost a single env's step more than
     its disk's arithmetic. A bundle (a numba structure, passed as one pointer) is unboxed at once: measured with a
     kernel that returns at once, 0.40 to 0.49 us a call with the bundle, the actions, the outputs and no resets,
     against 1.00 to 1.29 us with the twelve arrays in tuples (Intel Xeon). The resets travel in it too, so that a
-    step with resets and one without are one compiled function at the cost of one without.
+    step with resets and one without are one compiled function at the cost of one without. So do the share
+    functions: a first-class function passed as an argument is unboxed at every call (measured: 3.1 us, AMD EPYC),
+    one kept in the bundle costs 0.14 us a call, and the callers (:func:`step_range`, :func:`step_shares`) are then
+    the same compiled functions for every task, contact and integrator.
     """
 
 
-structref.define_constructor(Bundle, BundleType, ["batch", "setup", "resets"])
+structref.define_constructor(Bundle, BundleType, ["batch", "setup", "resets", "step", "reset"])
 structref.define_boxing(BundleType, Bundle)
 
 
 class InterpretedBundle(NamedTuple):
-    """:class:`Bundle` where numba's JIT is disabled (``NUMBA_DISABLE_JIT=1``): the kernels read the same fields."""
+    """:class:`Bundle` where numba's JIT is disabled (``NUMBA_DISABLE_JIT=1``): the callers read the same fields."""
 
     batch: tuple
     setup: tuple
     resets: tuple
+    step: object
+    reset: object
 
 
 @kernel
-def _compiled_bundle(batch, setup, resets):
-    return Bundle(batch, setup, resets)
+def _compiled_bundle(batch, setup, resets, step, reset):
+    return Bundle(batch, setup, resets, step, reset)
 
 
-def bundle(batch: tuple, setup: tuple, resets: tuple) -> Bundle | InterpretedBundle:
-    """The :class:`Bundle` of a batch's arrays (split into shares), settings and resets, given as plain tuples: built
-    by a cached kernel (about 7 us a call; calling ``Bundle`` from Python compiles its constructor in every
-    process)."""
+def bundle(batch: tuple, setup: tuple, resets: tuple, step, reset) -> Bundle | InterpretedBundle:
+    """The :class:`Bundle` of a batch's arrays (split into shares), settings and resets, given as plain tuples, and
+    its share functions (first-class functions): built by a cached kernel (about 7 us a call; calling ``Bundle`` from
+    Python compiles its constructor in every process)."""
     if numba.config.DISABLE_JIT:
-        return InterpretedBundle(batch, setup, resets)
-    return _compiled_bundle(batch, setup, resets)
+        return InterpretedBundle(batch, setup, resets, step, reset)
+    return _compiled_bundle(batch, setup, resets, step, reset)
 
 
 class OutputArrays(NamedTuple):
@@ -397,18 +405,42 @@ def first_nonfinite(actions) -> int:
     return -1
 
 
+@kernel
+def step_range(actions, arrays, out, stepping, shares) -> int:
+    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (``arrays``, its :class:`Bundle`) where
+    ``stepping``, each through its share function ``arrays.step``, then starts the new episodes of the resets' mask
+    in it (``arrays.reset``, while the share's rows are in cache: their actions are ignored, their outputs are their
+    first ones), and returns the first disk of the whole batch with a non-finite action (then nothing is stepped), or
+    -1; else only starts the episodes of the resets' mask in those shares and returns -1. One compiled function for
+    every task, contact and integrator, in the single env and the vector env, whether the shares run one after the
+    other or at once (:func:`step_shares` calls it on one share a thread): it calls the share functions through their
+    addresses, so it links none of their code (numba would optimize and emit a called kernel's code again in its
+    caller: a configuration's step and reset compiled in about half the time this way, ``docs/performance/history.md``).
+    """
+    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
+    if not stepping:
+        for k in range(shares[0], shares[1]):
+            arrays.reset(np.int64(k), resets, batch, setup, out)
+        return -1
+    bad = first_nonfinite(actions)
+    if bad < 0:
+        for k in range(shares[0], shares[1]):
+            arrays.step(np.int64(k), actions, batch, setup, out)
+            arrays.reset(np.int64(k), resets, batch, setup, out)
+    return bad
+
+
 @parallel_kernel
-def step_shares(step, actions, arrays, out, stepping) -> int:
-    """Calls a task's compiled step (``_generated/<task>.py``, ``step_<method>(actions, arrays, out, stepping,
-    shares)``), taken as a first-class function (:func:`rolling_disk_env.jit.first_class`), on each share of the
-    batch at once, a share per numba thread; returns what it returns (each call checks every action, so all return the
-    first disk with a non-finite action, or -1). A step called through its address must not raise: numba's C wrapper
-    would take the GIL on a worker thread while the calling thread holds it (the generated steps raise nothing)."""
+def step_shares(actions, arrays, out, stepping) -> int:
+    """:func:`step_range` on each share of the batch at once, a share per numba thread; returns what it returns (each
+    call checks every action, so all return the first disk with a non-finite action, or -1). A share function called
+    through its address must not raise: numba's C wrapper would take the GIL on a worker thread while the calling
+    thread holds it (the generated steps raise nothing)."""
     shares = arrays.batch[0].shape[1]
     bad = np.empty(shares, dtype=np.int64)
     for k in prange(shares):
         first = np.int64(k)
-        bad[k] = step(actions, arrays, out, stepping, (first, first + 1))
+        bad[k] = step_range(actions, arrays, out, stepping, (first, first + 1))
     return bad[0]
 
 

@@ -136,7 +136,8 @@ def test_importing_the_envs_compiles_nothing_until_a_config_is_used():
     code = (
         "import rolling_disk_env, gymnasium as gym; env = gym.make('RollingDisk-v0'); "
         "from rolling_disk_env._generated import upright, circle; "
-        "print(len(upright.step_rk4.signatures), len(upright.step_euler.signatures), len(circle.step_rk4.signatures))"
+        "print(len(upright.step_rk4_share.signatures), len(upright.step_euler_share.signatures), "
+        "len(circle.step_rk4_share.signatures))"
     )
     env_step = "env.reset(seed=0); env.step(env.action_space.sample()); "
     code = code.replace("from rolling", env_step + "from rolling")

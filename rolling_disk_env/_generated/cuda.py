@@ -44,7 +44,8 @@ def circle_step_euler(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        circle.step_euler_share(np.int64(k), actions, batch, setup, out, resets)
+        circle.step_euler_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -55,7 +56,8 @@ def circle_step_symplectic_euler(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        circle.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
+        circle.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -66,7 +68,8 @@ def circle_step_rk4(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        circle.step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
+        circle.step_rk4_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -77,7 +80,8 @@ def circle_step_dopri5(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        circle.step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
+        circle.step_dopri5_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -94,7 +98,8 @@ def circle_step_contact(arguments):
             queue = control[7]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
-            circle.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            circle.contact_outputs_share(np.int64(k), batch, setup, out)
+            circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
             if engine.device_step_ended(k, out, control, resets[0]):
                 circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
@@ -110,7 +115,8 @@ def circle_step_contact_hybrid(arguments):
     if j < queue[0]:
         k = queue[1 + j]
         circle.contact_hybrid_share(k, batch, setup, out)
-        circle.contact_outputs_share(k, batch, setup, out, resets)
+        circle.contact_outputs_share(k, batch, setup, out)
+        circle.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             circle.reset_contact_share(k, resets, batch, setup, out)
 
@@ -137,7 +143,8 @@ def goto_step_euler(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        goto.step_euler_share(np.int64(k), actions, batch, setup, out, resets)
+        goto.step_euler_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -148,7 +155,8 @@ def goto_step_symplectic_euler(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        goto.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
+        goto.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -159,7 +167,8 @@ def goto_step_rk4(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        goto.step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
+        goto.step_rk4_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -170,7 +179,8 @@ def goto_step_dopri5(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        goto.step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
+        goto.step_dopri5_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -187,7 +197,8 @@ def goto_step_contact(arguments):
             queue = control[7]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
-            goto.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            goto.contact_outputs_share(np.int64(k), batch, setup, out)
+            goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
             if engine.device_step_ended(k, out, control, resets[0]):
                 goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
@@ -203,7 +214,8 @@ def goto_step_contact_hybrid(arguments):
     if j < queue[0]:
         k = queue[1 + j]
         goto.contact_hybrid_share(k, batch, setup, out)
-        goto.contact_outputs_share(k, batch, setup, out, resets)
+        goto.contact_outputs_share(k, batch, setup, out)
+        goto.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             goto.reset_contact_share(k, resets, batch, setup, out)
 
@@ -230,7 +242,8 @@ def upright_step_euler(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        upright.step_euler_share(np.int64(k), actions, batch, setup, out, resets)
+        upright.step_euler_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -241,7 +254,8 @@ def upright_step_symplectic_euler(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        upright.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
+        upright.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -252,7 +266,8 @@ def upright_step_rk4(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        upright.step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
+        upright.step_rk4_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -263,7 +278,8 @@ def upright_step_dopri5(arguments):
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        upright.step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
+        upright.step_dopri5_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
@@ -280,7 +296,8 @@ def upright_step_contact(arguments):
             queue = control[7]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
-            upright.contact_outputs_share(np.int64(k), batch, setup, out, resets)
+            upright.contact_outputs_share(np.int64(k), batch, setup, out)
+            upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
             if engine.device_step_ended(k, out, control, resets[0]):
                 upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
@@ -296,6 +313,7 @@ def upright_step_contact_hybrid(arguments):
     if j < queue[0]:
         k = queue[1 + j]
         upright.contact_hybrid_share(k, batch, setup, out)
-        upright.contact_outputs_share(k, batch, setup, out, resets)
+        upright.contact_outputs_share(k, batch, setup, out)
+        upright.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, control, resets[0]):
             upright.reset_contact_share(k, resets, batch, setup, out)

@@ -187,11 +187,11 @@ def reset_contact_share(k, resets, batch, setup, out):
 
 
 @kernel
-def step_euler_share(k, actions, batch, setup, out, resets):
+def step_euler_share(k, actions, batch, setup, out):
     """One control period with euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    last (or only) substep, then each disk's outputs. The caller then starts a new episode in each disk of the mask
+    of its resets (:func:`reset_share`, while the share's rows are in cache).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -292,35 +292,14 @@ def step_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_euler(actions, arrays, out, stepping, shares):
-    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_euler_share`; ``arrays``
-    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
-    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
-    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
-    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
-    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in range(shares[0], shares[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in range(shares[0], shares[1]):
-            step_euler_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@kernel
-def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
+def step_symplectic_euler_share(k, actions, batch, setup, out):
     """One control period with symplectic_euler of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    last (or only) substep, then each disk's outputs. The caller then starts a new episode in each disk of the mask
+    of its resets (:func:`reset_share`, while the share's rows are in cache).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -421,35 +400,14 @@ def step_symplectic_euler_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_symplectic_euler(actions, arrays, out, stepping, shares):
-    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_symplectic_euler_share`; ``arrays``
-    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
-    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
-    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
-    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
-    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in range(shares[0], shares[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in range(shares[0], shares[1]):
-            step_symplectic_euler_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@kernel
-def step_rk4_share(k, actions, batch, setup, out, resets):
+def step_rk4_share(k, actions, batch, setup, out):
     """One control period with rk4 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    last (or only) substep, then each disk's outputs. The caller then starts a new episode in each disk of the mask
+    of its resets (:func:`reset_share`, while the share's rows are in cache).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -550,35 +508,14 @@ def step_rk4_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    reset_share(k, resets, batch, setup, out)
 
 
 @kernel
-def step_rk4(actions, arrays, out, stepping, shares):
-    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_rk4_share`; ``arrays``
-    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
-    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
-    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
-    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
-    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in range(shares[0], shares[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in range(shares[0], shares[1]):
-            step_rk4_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@kernel
-def step_dopri5_share(k, actions, batch, setup, out, resets):
+def step_dopri5_share(k, actions, batch, setup, out):
     """One control period with dopri5 of the disks of share k of the batch: the action's torques, then, in loops
     over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_share`, while the share's rows are in cache: its action is ignored).
+    last (or only) substep, then each disk's outputs. The caller then starts a new episode in each disk of the mask
+    of its resets (:func:`reset_share`, while the share's rows are in cache).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -660,30 +597,9 @@ def step_dopri5_share(k, actions, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    reset_share(k, resets, batch, setup, out)
 
 
-@kernel
-def step_dopri5(actions, arrays, out, stepping, shares):
-    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_dopri5_share`; ``arrays``
-    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
-    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
-    episodes of the resets' mask in those shares (:func:`reset_share`) and returns -1. One compiled function serves a
-    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
-    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in range(shares[0], shares[1]):
-            reset_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in range(shares[0], shares[1]):
-            step_dopri5_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
-
-
-@kernel
+@share_kernel
 def contact_roll_share(k, actions, batch, setup, out):
     """The rolling pass of a control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of
     share k: the action's torques, then the substeps of the rolling model and each disk's checks at the end of the
@@ -755,7 +671,7 @@ def contact_roll_share(k, actions, batch, setup, out):
         info[CONTACT_ROWS + 2, k, i] = info[CONTACT_ROWS + 3, k, i] = info[CONTACT_ROWS + 4, k, i] = 0.0
 
 
-@kernel
+@share_kernel
 def contact_hybrid_share(k, batch, setup, out):
     """The hybrid pass of a control period under the "sliding" or "coulomb" contact: the disks of share k that
     :func:`contact_roll_share` marked go through the period again from its start, one by one, switching modes
@@ -806,11 +722,10 @@ def contact_hybrid_share(k, batch, setup, out):
         info[CONTACT_ROWS + 4, k, i] = contact[7]
 
 
-@kernel
-def contact_outputs_share(k, batch, setup, out, resets):
+@share_kernel
+def contact_outputs_share(k, batch, setup, out):
     """The end of a control period under the "sliding" or "coulomb" contact, once both passes are done: each disk's
-    reward terms, observation and flags; then a new episode in each disk of the mask of ``resets``
-    (:func:`reset_contact_share`)."""
+    reward terms, observation and flags."""
     lanes, goals, steps = batch
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
@@ -840,35 +755,14 @@ def contact_outputs_share(k, batch, setup, out, resets):
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = code == RUNNING
     engine.transpose(info, OBSERVATION, OBSERVATION_SIZE, observations, k)
-    reset_contact_share(k, resets, batch, setup, out)
-
-
-@share_kernel
-def step_contact_share(k, actions, batch, setup, out, resets):
-    """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
-    its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
-    (:func:`contact_outputs_share`). A GPU runs the three passes as two kernels, so that the disks that slide run the
-    hybrid together (``_generated/cuda.py``)."""
-    contact_roll_share(k, actions, batch, setup, out)
-    contact_hybrid_share(k, batch, setup, out)
-    contact_outputs_share(k, batch, setup, out, resets)
 
 
 @kernel
-def step_contact(actions, arrays, out, stepping, shares):
-    """Steps the shares ``shares[0]`` to ``shares[1] - 1`` of a batch (see :func:`step_contact_share`; ``arrays``
-    its :class:`~rolling_disk_env.engine.Bundle`, whose resets the step starts) where ``stepping``, and returns the
-    first disk of the whole batch with a non-finite action (then nothing is stepped), or -1; else only starts the
-    episodes of the resets' mask in those shares (:func:`reset_contact_share`) and returns -1. One compiled function serves a
-    configuration's resets and steps, in the single env and the vector env, whether the shares run one after the
-    other or at once (:func:`rolling_disk_env.engine.step_shares` calls it on one share a thread)."""
-    batch, setup, resets = arrays.batch, arrays.setup, arrays.resets
-    if not stepping:
-        for k in range(shares[0], shares[1]):
-            reset_contact_share(np.int64(k), resets, batch, setup, out)
-        return -1
-    bad = engine.first_nonfinite(actions)
-    if bad < 0:
-        for k in range(shares[0], shares[1]):
-            step_contact_share(np.int64(k), actions, batch, setup, out, resets)
-    return bad
+def step_contact_share(k, actions, batch, setup, out):
+    """One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
+    its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
+    (:func:`contact_outputs_share`); the caller then starts the new episodes (:func:`reset_contact_share`). A GPU runs
+    the passes as two kernels, so that the disks that slide run the hybrid together (``_generated/cuda.py``)."""
+    contact_roll_share(k, actions, batch, setup, out)
+    contact_hybrid_share(k, batch, setup, out)
+    contact_outputs_share(k, batch, setup, out)

@@ -221,25 +221,39 @@ def entry_point(kernel, args: tuple, name: str = "a kernel"):
     it where there is none, which :data:`logger` says, naming it ``name``). Where numba's JIT is disabled
     (``NUMBA_DISABLE_JIT=1``), the kernel itself.
     """
-    if not hasattr(kernel, "compile"):
-        return kernel
-    signature = tuple(kernel.typeof_pyval(arg) for arg in args)
-    if signature in kernel.overloads or in_disk_cache(kernel, signature):
-        return kernel.compile(signature)
-    where = getattr(kernel._cache, "_cache_path", None)
-    with _compiling(where, f"{kernel.__qualname__}{signature}"):
-        if in_disk_cache(kernel, signature):  # another process compiled it while this one waited
-            return kernel.compile(signature)
-        logger.info(
-            "compiling %s for this CPU (%s), once: it takes seconds to a minute; %s",
-            name,
-            cpu_name(),
-            f"cached in {where}" if where else "not cached (no writable cache directory)",
-        )
-        start = time.perf_counter()
-        entry = kernel.compile(signature)
-        logger.info("compiled %s in %.1f s", name, time.perf_counter() - start)
-    return entry
+    return compiled([(kernel, args)], name)[0]
+
+
+def compiled(calls: list[tuple], name: str) -> list:
+    """The compiled functions of ``calls``, pairs ``(kernel, args)`` (see :func:`entry_point`), compiling those that
+    neither this process nor numba's cache on disk holds, under one log line naming them ``name``."""
+    signatures = [
+        tuple(kernel.typeof_pyval(arg) for arg in args) if hasattr(kernel, "compile") else None
+        for kernel, args in calls
+    ]
+    missing = [
+        (kernel, signature)
+        for (kernel, _), signature in zip(calls, signatures)
+        if signature is not None and signature not in kernel.overloads and not in_disk_cache(kernel, signature)
+    ]
+    if missing:
+        kernel, signature = missing[0]
+        where = getattr(kernel._cache, "_cache_path", None)
+        with _compiling(where, f"{kernel.__qualname__}{signature}"):
+            if not all(in_disk_cache(kernel, signature) for kernel, signature in missing):
+                logger.info(
+                    "compiling %s for this CPU (%s), once: it takes seconds to a minute; %s",
+                    name,
+                    cpu_name(),
+                    f"cached in {where}" if where else "not cached (no writable cache directory)",
+                )
+                start = time.perf_counter()
+                for kernel, signature in missing:
+                    kernel.compile(signature)
+                logger.info("compiled %s in %.1f s", name, time.perf_counter() - start)
+    return [
+        kernel if signature is None else kernel.compile(signature) for (kernel, _), signature in zip(calls, signatures)
+    ]
 
 
 @contextlib.contextmanager
@@ -396,7 +410,11 @@ class DiskBatch:
         # env's steps and resets, for one integrator and one contact family, on the calling thread or on threads.
         self.method = config.integrator if config.contact == "rolling" else "contact"
         """The step's method: the integrator under the ``"rolling"`` contact, else ``"contact"``."""
-        self._step = getattr(steps, f"step_{self.method}")
+        self._shares = (
+            getattr(steps, f"step_{self.method}_share"),
+            steps.reset_share if config.contact == "rolling" else steps.reset_contact_share,
+        )
+        """The share functions of the configuration's step and reset (``_generated/<task>.py``)."""
         self.description = f"the step and reset of task {task.name!r} ({self.method}, {config.contact} contact)"
         """What the kernels compute, as the compile log names them (:func:`entry_point`)."""
         self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
@@ -443,6 +461,7 @@ class DiskBatch:
         """The settings, as the kernels take them (:class:`~rolling_disk_env.engine.SetupArrays`, a plain tuple)."""
         self._no_rngs = np.zeros((0, 4), dtype=np.uint64)
         self._rngs = self._no_rngs  # the PCG64 states in the bundle's resets
+        self._functions = None  # the compiled share functions (_share_functions)
         self._bundle()
 
     def _layout(self, num_envs: int) -> tuple[int, int]:
@@ -468,20 +487,35 @@ class DiskBatch:
         return Outputs.empty(self.num_envs, self.observation_size, self.rows, zeroed, (self.threads, self.share))
 
     def __getstate__(self) -> dict:
-        """Pickles the arrays, not the views of them the step takes (which would pickle as copies)."""
-        return {key: value for key, value in self.__dict__.items() if key not in ("_arrays", "_entries", "_rngs")}
+        """Pickles the arrays, not the views of them the step takes (which would pickle as copies), nor the compiled
+        functions (addresses in this process)."""
+        left_out = ("_arrays", "_entries", "_rngs", "_functions")
+        return {key: value for key, value in self.__dict__.items() if key not in left_out}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._rngs = self._no_rngs
+        self._functions = None
         self._bundle()
 
     def _bundle(self) -> None:
-        """The batch's :meth:`shares`, with the settings and the resets, in the
-        :class:`~rolling_disk_env.engine.Bundle` the kernels take."""
-        self._entries = [None] * 2  # the compiled step (_serial), and engine.step_shares with its step (_threaded)
-        resets = (self.mask, self._rngs, self.uniforms, self.no_state)
-        self._arrays = engine.bundle(self.shares(), self.setup, resets)
+        """Forgets the batch's :class:`~rolling_disk_env.engine.Bundle`, which :meth:`_call` builds again: its
+        :meth:`shares`, settings and resets, with the compiled share functions (:meth:`_share_functions`)."""
+        self._entries = [None] * 2  # engine.step_range (_serial), and engine.step_shares (_threaded), compiled
+        self._arrays = None
+
+    def _share_functions(self, actions: np.ndarray, out: Outputs) -> tuple:
+        """The configuration's step and reset share functions compiled for the types of the batch's arrays (or loaded
+        from numba's cache), as first-class functions (:func:`~rolling_disk_env.jit.first_class`), once."""
+        if self._functions is None:
+            batch, setup = self.shares(), self.setup
+            resets = (self.mask, self._rngs, self.uniforms, self.no_state)
+            step, reset = self._shares
+            k = np.int64(0)
+            calls = [(step, (k, actions, batch, setup, out.shares)), (reset, (k, resets, batch, setup, out.shares))]
+            compiled(calls, self.description)
+            self._functions = tuple(first_class(kernel, args) for kernel, args in calls)
+        return self._functions
 
     def _draw_from(self, rngs: np.ndarray | None) -> None:
         """Puts ``rngs`` (or none: the uniforms as they are) into the bundle's resets, if they are not there (a vector
@@ -550,14 +584,16 @@ class DiskBatch:
         """Calls the compiled step (``stepping``: a step, then the resets of :attr:`mask`) or reset (the resets
         alone), on the shares one after the other or on numba's threads, a share each, as :attr:`choice` says (which
         times the steps)."""
+        if self._arrays is None:
+            resets = (self.mask, self._rngs, self.uniforms, self.no_state)
+            self._arrays = engine.bundle(self.shares(), self.setup, resets, *self._share_functions(actions, out))
         arguments = (actions, self._arrays, out.shares, stepping, (0, self.threads))
         if self.choice is None:
             return self._serial(arguments)(*arguments)
         threaded = self.choice.next() if stepping else self.choice.threaded
         start = time.perf_counter()
         if threaded:
-            on_threads, step = self._threaded(arguments)
-            bad = on_threads(step, *arguments[:-1])
+            bad = self._threaded(arguments)(*arguments[:-1])
         else:
             bad = self._serial(arguments)(*arguments)
         if stepping:
@@ -565,21 +601,19 @@ class DiskBatch:
         return bad
 
     def _serial(self, arguments: tuple):
-        """The compiled step (:func:`entry_point`), for ``arguments`` of the types every call passes: ``actions`` a
-        C-contiguous float32 (N, A) array (a reset passes one of no rows), the batch's bundle, outputs of
-        :meth:`outputs`, whether to step, and the range of shares (two ints)."""
+        """:func:`~rolling_disk_env.engine.step_range` compiled (:func:`entry_point`: once for every configuration),
+        for ``arguments`` of the types every call passes: ``actions`` a C-contiguous float32 (N, A) array (a reset
+        passes one of no rows), the batch's bundle, outputs of :meth:`outputs`, whether to step, and the range of
+        shares (two ints)."""
         if self._entries[0] is None:
-            self._entries[0] = entry_point(self._step, arguments, self.description)
+            self._entries[0] = entry_point(engine.step_range, arguments, "the call of a batch's shares")
         return self._entries[0]
 
-    def _threaded(self, arguments: tuple) -> tuple:
-        """:func:`~rolling_disk_env.engine.step_shares` compiled (:func:`entry_point`) for the compiled step as a
-        first-class function (:func:`~rolling_disk_env.jit.first_class`: it calls the step by its address, so it
-        compiles in a second or two, once, for every configuration), and that function: what it takes as first
-        argument, before ``arguments`` less the range of shares."""
+    def _threaded(self, arguments: tuple):
+        """:func:`~rolling_disk_env.engine.step_shares` compiled (:func:`entry_point`: once for every configuration),
+        for ``arguments`` less the range of shares."""
         if self._entries[1] is None:
-            self._serial(arguments)
-            step = first_class(self._step, arguments)
-            entry = entry_point(engine.step_shares, (step, *arguments[:-1]), "the call of a batch's shares on threads")
-            self._entries[1] = (entry, step)
+            self._entries[1] = entry_point(
+                engine.step_shares, arguments[:-1], "the call of a batch's shares on threads"
+            )
         return self._entries[1]
