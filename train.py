@@ -34,7 +34,7 @@ from pathlib import Path
 
 # Only the standard library is imported before the arguments are parsed: --help and argument errors answer at
 # once, and torch, SB3 and the package load (seconds) only for a run.
-TASKS = ("upright", "circle", "goto")
+TASKS = ("upright", "circle", "goto", "waypoints", "eight", "recovery", "ice")
 """The tasks with hyperparameters, keys of ``rolling_disk_env.TASK_IDS`` (tests/test_train_cli.py checks both)."""
 ALGORITHMS = ("ppo", "sac", "td3")
 """The algorithms, the keys of ``agents.evaluate.ALGORITHMS`` (checked likewise)."""

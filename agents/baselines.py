@@ -84,13 +84,15 @@ class CircleLQR(_Controller):
     observation gives through theta*; gains are cached by radius.
     """
 
+    TASK = "circle"
+
     def __init__(
         self, radial_scale=0.3, heading_scale=0.3, lean_scale=0.1, spin_scale=1.0, rate_scale=1.0, **env_kwargs
     ):
         super().__init__(**env_kwargs)
         task = self.config.task
-        if task.name != "circle":
-            raise ValueError("CircleLQR is for task='circle'")
+        if task.name != self.TASK:
+            raise ValueError(f"{type(self).__name__} is for task={self.TASK!r}")
         self.speed = task.target_speed
         self.q = np.diag(
             1 / np.array([radial_scale, heading_scale, lean_scale, spin_scale, rate_scale, rate_scale]) ** 2
@@ -133,8 +135,15 @@ class GotoLQR(_Controller):
     rates; the nearest is used. The defaults were tuned on seeds 0 to 199 (evaluations use seeds from 10000).
 
     It cannot turn tighter than ``min_turn_radius``, so a target inside the turning circle beside the disk is
-    circled around rather than reached (short distances at bearings near +-pi/2 fail).
+    circled around rather than reached (short distances at bearings near +-pi/2 fail). The same controller drives
+    ``waypoints`` (towards the next waypoint) and ``ice`` (it does not know the contact slides): the tasks whose
+    observation holds the next target's bearing, the lean and the rates under ``goto``'s names.
     """
+
+    TASKS = ("goto", "waypoints", "ice")
+    """The tasks whose observation it reads."""
+    READS = ("sin_bearing", "cos_bearing", "theta", "dtheta", "dphi_error", "dpsi")
+    """The observation's components it reads, by name."""
 
     def __init__(
         self,
@@ -148,8 +157,9 @@ class GotoLQR(_Controller):
     ):
         super().__init__(**env_kwargs)
         task = self.config.task
-        if task.name != "goto":
-            raise ValueError("GotoLQR is for task='goto'")
+        if task.name not in self.TASKS:
+            raise ValueError(f"GotoLQR is for the tasks {self.TASKS}, got {task.name!r}")
+        self.reads = [task.observation_names.index(name) for name in self.READS]
         speed = task.cruise_speed
         self.heading_gain = heading_gain
         self.cruise_dphi = speed / self.params.radius
@@ -168,12 +178,95 @@ class GotoLQR(_Controller):
             self.gains.append(discrete_lqr(a, b * self.torque_limits, q, np.eye(2), self.config.dt))
 
     def action(self, observation):
-        _, sin_bearing, cos_bearing, theta, dtheta, dphi_error, dpsi = observation
+        sin_bearing, cos_bearing, theta, dtheta, dphi_error, dpsi = observation[self.reads]
         rate = self.heading_gain * math.atan2(sin_bearing, cos_bearing)
         k = int(np.argmin(np.abs(self.rates - rate)))
         error = np.array([theta, dphi_error + self.cruise_dphi, dtheta, dpsi]) - self.references[k]
         return np.clip(-self.gains[k] @ error, -1.0, 1.0)
 
 
-BASELINES = {"upright": UprightLQR, "circle": CircleLQR, "goto": GotoLQR}
+class EightLQR(CircleLQR):
+    """:class:`CircleLQR` on the figure eight's lobe of the next gate, mirrored on the clockwise lobe, its steady
+    circle eased out before each crossing and in after it.
+
+    A reflection of the plane maps the clockwise lobe onto a counter-clockwise circle: the radial error and the
+    spin rate stay, the heading error, the lean, the lean rate and the heading rate change sign, and so does the steer
+    torque. The sign of the observation's target lean tells the lobe; the gain is the circle's of the episode's
+    radius (from the target lean's size). Within ``ease`` rad of turn about the lobe's centre before a crossing and
+    after it, the operating point's lean and heading rate are the steady circle's scaled by the turn's distance to
+    the crossing over ``ease``: upright rolling at the crossing, so that the lean swings over there instead of being
+    asked to jump (without it the controller fell at the first crossing in every episode).
+    """
+
+    TASK = "eight"
+
+    def __init__(self, ease=0.8, **kwargs):
+        super().__init__(**kwargs)
+        self.ease = ease
+
+    def action(self, observation):
+        radial, sin_delta, cos_delta, theta_error, dtheta, dphi_error, dpsi_error, target_lean = observation[:8]
+        gate_sin, gate_cos, quarters_left = observation[8:11]
+        side = 1.0 if target_lean >= 0 else -1.0
+        # The turn (rad) to the crossing ahead (the next gate is the crossing) or from the one behind (the next gate
+        # is the lobe's first, a quarter turn after it).
+        to_gate = math.atan2(gate_sin, gate_cos)
+        from_crossing = (
+            to_gate if quarters_left < 1 / 6 else (math.pi / 2 - to_gate if quarters_left > 5 / 6 else math.inf)
+        )
+        scale = min(max(from_crossing / self.ease, 0.0), 1.0)
+        radius = float(np.interp(abs(target_lean), self.leans, self.radii))
+        dpsi_target = self.speed / radius
+        theta_error += (1.0 - scale) * target_lean
+        dpsi_error += (1.0 - scale) * side * dpsi_target
+        mirrored = np.array(
+            [radial, side * sin_delta, cos_delta, side * theta_error, side * dtheta, dphi_error, side * dpsi_error]
+        )
+        action = np.clip(-self._gain(radius) @ self._error(mirrored), -1.0, 1.0)
+        action[1] *= side
+        return action
+
+    @staticmethod
+    def _error(mirrored):
+        radial, sin_delta, cos_delta, theta_error, dtheta, dphi_error, dpsi_error = mirrored
+        return np.array([radial, math.atan2(sin_delta, cos_delta), theta_error, dphi_error, dtheta, dpsi_error])
+
+
+class RecoveryLQR(_Controller):
+    """The LQR about upright rolling at the task's target spin rate: the lean model linearized at ``(0, dphi*, 0, 0)``
+    (:func:`rolling_disk_env.dynamics.lean_jacobians`), error ``(theta, dphi - dphi*, dtheta, dpsi)``, with gains
+    scheduled over the spin rate (the nearest of ``spins`` from ``dphi*`` up to ``max_spin``) where ``scheduled``:
+    what linear control about the target does from the task's large leans and fast spins."""
+
+    def __init__(
+        self, lean_scale=0.1, spin_scale=1.0, rate_scale=0.5, heading_scale=0.5, scheduled=False, max_spin=30.0,
+        **env_kwargs,
+    ):  # fmt: skip
+        super().__init__(**env_kwargs)
+        task = self.config.task
+        if task.name != "recovery":
+            raise ValueError("RecoveryLQR is for task='recovery'")
+        self.target = task.target_speed / self.params.radius
+        self.spins = np.linspace(self.target, max_spin, 57) if scheduled else np.array([self.target])
+        q = np.diag(1 / np.array([lean_scale, spin_scale, rate_scale, heading_scale]) ** 2)
+        self.gains = []
+        for dphi in self.spins:
+            a, b = lean_jacobians((0.0, dphi, 0.0, 0.0), params=self.params)
+            self.gains.append(discrete_lqr(a, b * self.torque_limits, q, np.eye(2), self.config.dt))
+
+    def action(self, observation):
+        theta, dtheta, dphi_error, dpsi, _ = observation
+        k = int(np.argmin(np.abs(self.spins - abs(dphi_error + self.target))))
+        return np.clip(-self.gains[k] @ np.array([theta, dphi_error, dtheta, dpsi]), -1.0, 1.0)
+
+
+BASELINES = {
+    "upright": UprightLQR,
+    "circle": CircleLQR,
+    "goto": GotoLQR,
+    "waypoints": GotoLQR,
+    "eight": EightLQR,
+    "recovery": RecoveryLQR,
+    "ice": GotoLQR,
+}
 """The classical baseline of each task."""

@@ -136,7 +136,8 @@ def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, on_st
     """Runs ``episodes`` seeded episodes at once on the native vector env, one episode per sub-environment;
     ``on_step(infos, running)``, if given, sees every step's batched info with the mask of the episodes it belongs to
     (those that had not ended before it)."""
-    env = rd.RollingDiskVectorEnv(num_envs=episodes, max_episode_steps=rd.MAX_EPISODE_STEPS, **env_kwargs)
+    steps = rd.TASK_MAX_STEPS[env_kwargs.get("task", "upright")]
+    env = rd.RollingDiskVectorEnv(num_envs=episodes, max_episode_steps=steps, **env_kwargs)
     observations, _ = env.reset(seed=seed)
     returns = np.zeros(episodes)
     successes = np.zeros(episodes, dtype=bool)
@@ -156,7 +157,8 @@ def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, on_st
 def record_episode(agent, seed: int = EVAL_SEED, render_mode: str = "rgb_array", **env_kwargs) -> dict:
     """One episode on the single env: times, states, torques, the goal, the task and, with ``render_mode``
     ``"rgb_array"``, the frames (``"human"`` shows the episode in a window instead, at the env's pace)."""
-    env = gym.make(rd.ENV_ID, render_mode=render_mode, **env_kwargs)
+    steps = rd.TASK_MAX_STEPS[env_kwargs.get("task", "upright")]
+    env = gym.make(rd.ENV_ID, render_mode=render_mode, max_episode_steps=steps, **env_kwargs)
     observation, info = env.reset(seed=seed)
     unwrapped = env.unwrapped
     limits = np.array(unwrapped.config.max_torque)
@@ -226,7 +228,8 @@ def episode_figure(episode: dict, title: str):
     ax = axes[0, 1]
     ax.plot(times, states[:, 5], label="dphi (spin)")
     ax.plot(times, states[:, 7], label="dpsi (heading)")
-    ax.axhline(goal["dphi"], color="tab:green", ls="--", label="target dphi")
+    if "dphi" in goal:
+        ax.axhline(goal["dphi"], color="tab:green", ls="--", label="target dphi")
     ax.set(xlabel="t (s)", ylabel="rad/s", title="rates")
     ax.legend(fontsize=8)
     ax = axes[1, 0]
@@ -237,15 +240,9 @@ def episode_figure(episode: dict, title: str):
     ax = axes[1, 1]
     ax.plot(states[:, 0], states[:, 1], label="centre track")
     ax.plot(states[0, 0], states[0, 1], "o", color="tab:blue", label="start")
-    if "radius" in goal:
-        angles = np.linspace(0, 2 * np.pi, 200)
-        ax.plot(
-            goal["cx"] + goal["radius"] * np.cos(angles),
-            goal["cy"] + goal["radius"] * np.sin(angles),
-            "--",
-            color="tab:green",
-            label="target circle",
-        )
+    task = episode["task"]
+    for j, mark in enumerate(task.marks(goal)):
+        ax.plot(mark[:, 0], mark[:, 1], "--", color="tab:green", label=task.mark_label if j == 0 else None)
     # Equal scales on x and y, but the panel keeps its size: the data limits grow instead (a straight track would
     # otherwise squeeze the panel into a strip).
     ax.set(xlabel="x (m)", ylabel="y (m)", title="track from above")

@@ -41,15 +41,23 @@ from rolling_disk_env.integrators import CONTACTS, METHODS, RollingContactError,
 ENV_ID = "RollingDisk-v0"
 """The general id: task ``"upright"`` by default, every keyword argument accepted (``task=`` included)."""
 MAX_EPISODE_STEPS = 500
-"""Steps of 0.02 s in an episode (10 s)."""
+"""Steps of 0.02 s in an episode (10 s): ``RollingDisk-v0``'s limit, and most tasks' ids'."""
 TASK_SPECS = (
-    ("upright", "RollingDiskUpright-v0", 450.0),
-    ("circle", "RollingDiskCircle-v0", 450.0),
-    ("goto", "RollingDiskGoto-v0", 150.0),
+    ("upright", "RollingDiskUpright-v0", 450.0, MAX_EPISODE_STEPS),
+    ("circle", "RollingDiskCircle-v0", 450.0, MAX_EPISODE_STEPS),
+    ("goto", "RollingDiskGoto-v0", 150.0, MAX_EPISODE_STEPS),
+    ("waypoints", "RollingDiskWaypoints-v0", 250.0, 1000),
+    ("eight", "RollingDiskEight-v0", 1000.0, 1250),
+    ("recovery", "RollingDiskRecovery-v0", 80.0, MAX_EPISODE_STEPS),
+    ("ice", "RollingDiskIce-v0", 150.0, MAX_EPISODE_STEPS),
 )
-"""One id per task, with the task fixed: ``(task, id, reward_threshold)``. A new task's id is one more line."""
-TASK_IDS = {task: env_id for task, env_id, _ in TASK_SPECS}
+"""One id per task, with the task fixed: ``(task, id, reward_threshold, max_episode_steps)``. A new task's id is one
+more line. ``RollingDisk-v0`` truncates every task at :data:`MAX_EPISODE_STEPS`, unless ``gymnasium.make`` is given
+``max_episode_steps`` (the longer tasks' ids take theirs)."""
+TASK_IDS = {task: env_id for task, env_id, *_ in TASK_SPECS}
 """The id of each task (the ids rl-baselines3-zoo's hyperparameter files are keyed by)."""
+TASK_MAX_STEPS = {task: steps for task, _, _, steps in TASK_SPECS}
+"""The episode length of each task's id, in control periods."""
 JAX_ID = "RollingDiskJax-v0"
 """The tasks in JAX through Gymnasium's functional API (``task=`` chooses; needs the ``[jax]`` extra):
 :mod:`rolling_disk_env.jax.functional`."""
@@ -57,14 +65,17 @@ JAX_ID = "RollingDiskJax-v0"
 
 def _register() -> None:
     """Registers the ids that are missing: idempotent, as SubprocVecEnv children import the package again."""
-    specs = [(ENV_ID, {}, 450.0), *((env_id, {"task": task}, threshold) for task, env_id, threshold in TASK_SPECS)]
-    for env_id, kwargs, threshold in specs:
+    specs = [
+        (ENV_ID, {}, 450.0, MAX_EPISODE_STEPS),
+        *((env_id, {"task": task}, threshold, steps) for task, env_id, threshold, steps in TASK_SPECS),
+    ]
+    for env_id, kwargs, threshold, steps in specs:
         if env_id not in registry:
             register(
                 id=env_id,
                 entry_point="rolling_disk_env.envs:RollingDiskEnv",
                 vector_entry_point="rolling_disk_env.envs:vector_env",
-                max_episode_steps=MAX_EPISODE_STEPS,
+                max_episode_steps=steps,
                 reward_threshold=threshold,
                 kwargs=kwargs,
             )
@@ -102,6 +113,8 @@ __all__ = [
     "METHODS",
     "SLIDING_STATE_NAMES",
     "TASK_IDS",
+    "TASK_MAX_STEPS",
+    "TASK_SPECS",
     "DiskParams",
     "OutOfDomainError",
     "RollingContactError",

@@ -558,12 +558,14 @@ CHECKS_TEMPLATE = """\
         # and the task's termination, into its column of info.
         contact = {contact}
         goal = {goal}
-        code = {contact_status} if code == RUNNING else code
-        code = task.termination(x, goal, settings) if code == RUNNING else code
+        code = {contact_status} if code == RUNNING else code{termination}
 {report}"""
 """The end of a control period, for disk i of one task: the body of the loop that checks the contact and the
-termination (the fields in braces are filled in per task and contact). Written out in the loop, not called: numba
-counts references to the arrays passed to a function, and those calls keep a loop from vectorizing."""
+termination (the fields in braces are filled in per task and contact; a task with progress has its termination in
+:data:`OUTPUTS_LOOP`, after ``advance``). Written out in the loop, not called: numba counts references to the arrays
+passed to a function, and those calls keep a loop from vectorizing."""
+_TERMINATION = "\n        code = task.termination(x, goal, settings) if code == RUNNING else code"
+"""The task's termination, after the contact's checks."""
 
 OUTPUTS_LOOP = """
     # The reward terms, the observation and the flags in a loop of their own: fewer live values in each loop
@@ -574,17 +576,26 @@ OUTPUTS_LOOP = """
         trig = {angles}
         goal = {goal}
         code = codes[k, i]
+        velocity = {velocity}{advance}
         steps[k, i] += 1
-        terms = task.reward_terms(x, trig, {velocity}, code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, velocity, code, lanes[EFFORT, k, i], goal, settings)
 {terms}
         info[REWARD, k, i] = {reward}
-        observation = task.observe(x, trig, goal, settings)
+        observation = task.observe(x, trig, velocity, goal, settings)
 {observe}{tracking}
         flags[TERMINATED, k, i] = code != RUNNING
         flags[TRUNCATED, k, i] = 0 < max_steps <= steps[k, i]
         flags[SUCCESS, k, i] = {success}"""
 """The last loop of a step, after :data:`CHECKS_TEMPLATE`'s: each disk's reward terms, observation, success and
-flags, from the states and codes the loops before stored."""
+flags, from the states and codes the loops before stored; for a task with progress first its ``advance`` and
+termination (:data:`_ADVANCE_PROGRESS`)."""
+_ADVANCE_PROGRESS = """
+        progress = task.advance(x, trig, velocity, goal, settings)
+{store_progress}
+        goal = {progress_goal}
+        code = task.termination(x, goal, settings) if code == RUNNING else code
+        codes[k, i] = code"""
+"""The task's progress after the step, written into its rows of ``goals``, then the task's termination on it."""
 
 HANDOVER = """
 {store_state}
@@ -612,7 +623,7 @@ CONTACT_ROLL = """    period, substeps, coulomb = config[PERIOD], int(config[SUB
     for substep in range(substeps):
         for i in range(lanes.shape[2]):
             tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
-            m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+            m, g, r, friction = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i], lanes[MU, k, i]
             x = {substep_state}
             trig = {substep_angles}
             marked = engine.marked(lanes[SLIDES, k, i], x, tau_spin, tau_steer, friction, coulomb, m, g, r)
@@ -622,7 +633,7 @@ CONTACT_ROLL = """    period, substeps, coulomb = config[PERIOD], int(config[SUB
 {substep_store_angles}
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
-        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        m, g, r, friction = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i], lanes[MU, k, i]
         x = {state}
         trig = {angles}
         code = RUNNING
@@ -646,7 +657,7 @@ CONTACT_HYBRID = """    period, substeps, coulomb = config[PERIOD], int(config[S
         if lanes[SLIDES, k, i] == 0.0:
             continue
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
-        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        m, g, r, friction = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i], lanes[MU, k, i]
         torques, disk = (tau_spin, tau_steer), (m, g, r)
         state = {period_start}
         state, code, report = engine.advance_contact(state, period, substeps, torques, friction, coulomb, disk)
@@ -702,7 +713,6 @@ def contact_roll_share(k, actions, batch, setup, out):
     takes them.\"\"\"
     {unpack}
     settings = {settings}
-    friction = config[FRICTION]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
 {roll}
@@ -715,7 +725,6 @@ def contact_hybrid_share(k, batch, setup, out):
     (``engine.advance_contact``). A disk that rolls on gets the same arithmetic either way.\"\"\"
     {unpack}
     settings = {settings}
-    friction = config[FRICTION]
 {hybrid}
 
 
@@ -748,7 +757,7 @@ RESET_TEMPLATE = """
 @kernel
 def {reset}(k, resets, batch, setup, out):
     \"\"\"Starts an episode in each disk of share k that the mask of ``resets`` holds{described}: its disk constants
-    (those randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its
+    (those randomized, in the order m, g, r, mu), then the task's goal and initial state from the values drawn in its
     ranges, all from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
     the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
@@ -768,7 +777,7 @@ def {reset}(k, resets, batch, setup, out):
             for j in range(uniforms.shape[1]):
                 uniforms[d, j] = pcg64.random(rngs[d])
         drawn = 0
-        for j in range(3):
+        for j in range(DISK_CONSTANTS):
             low, high = disk_ranges[j, 0], disk_ranges[j, 1]
             lanes[MASS + j, k, i] = low
             if disk_ranges[j, 2]:
@@ -790,37 +799,41 @@ def {reset}(k, resets, batch, setup, out):
         lanes[TRACKING_SUM, k, i] = lanes[TRACKING_WEIGHT, k, i] = 0.0
         contact = engine.contact(x, 0.0, 0.0, disk[0], disk[1], disk[2])
         code = RUNNING
-{report}
+{report}{start_velocity}
         info[REWARD, k, i] = 0.0
         for j in range(TERMS, OBSERVATION):
             info[j, k, i] = 0.0
-        observation = task.observe(x, trig, goal, options)
+        observation = task.observe(x, trig, velocity, goal, options)
         for j in range(len(observation)):
             info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
         flags[TERMINATED, k, i] = False
         flags[TRUNCATED, k, i] = False
-        flags[SUCCESS, k, i] = {success_at_start}{contact_start}
+        flags[SUCCESS, k, i] = {success_at_start}
 """
 """Starting episodes of one task: a function for the ``"rolling"`` contact (``reset_share``), another for the
 ``"sliding"`` and ``"coulomb"`` contacts (``reset_contact_share``, :data:`CONTACT_START`), so that a rolling env
 compiles none of the hybrid's code."""
+ROLLING_START = """
+        velocity = engine.centre_velocity(x, trig, disk[0], disk[1], disk[2])"""
+"""The centre's velocity at the start of an episode under the ``"rolling"`` contact (the rolling constraint's)."""
 CONTACT_START = """
-        state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
+        state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), lanes[MU, k, i], coulomb, disk)
         lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
         lanes[SLIDES, k, i] = contact[7]
 {contact_report}
         info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
         info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
-        info[CONTACT_ROWS + 4, k, i] = contact[7]"""
-"""The end of ``reset_contact_share``: the centre's velocity (NaN: from the rolling constraint) and the hybrid's
-report at zero torque."""
+        info[CONTACT_ROWS + 4, k, i] = contact[7]
+        velocity = (state[5], state[6])"""
+"""The centre's velocity at the start of an episode under the ``"sliding"`` and ``"coulomb"`` contacts (given; NaN:
+from the rolling constraint) and the hybrid's report at zero torque, before the first observation."""
 _RESETS = {
-    "rolling": ("reset_share", "", "", "", ""),
+    "rolling": ("reset_share", "", "", "", ROLLING_START),
     "contact": (
         "reset_contact_share",
         ' under the ``"sliding"`` or ``"coulomb"`` contact',
         "\n    Then the centre's velocity (NaN: from the rolling constraint) and the hybrid's report at zero torque.",
-        "\n    friction, coulomb = config[FRICTION], config[CONTACT] == COULOMB",
+        "\n    coulomb = config[CONTACT] == COULOMB",
         CONTACT_START,
     ),
 }
@@ -886,6 +899,7 @@ def generate_steps(task) -> str:
     rule = {SURVIVE: "survive", TRACK: "track", REACH: "reach"}[task.success]
     success, success_at_start = _SUCCESS[rule]
     terms, observations = len(task.default_reward_weights), len(task.observation_names)
+    targets, progress = len(task.goal_names), len(task.progress_names)
     reported = [*_items("x", 8), *_items("contact", 5)]
     fields = {  # the arrays of the step and the reset come in shares: [row, k, i]
         "{given}": "(" + ", ".join(f"given[d, {j}]" for j in range(8)) + ")",
@@ -909,7 +923,8 @@ def generate_steps(task) -> str:
         "{substep_angles}": _row_tuple("lanes", 4, column="k, i", first="ANGLES + ", indent=12),
         "{substep_store}": _stores("lanes", _STATE_ROWS, _items("x", 8), 12, "k, i"),
         "{substep_store_angles}": _store_angles(12),
-        "{goal}": _row_tuple("goals", len(task.goal_names), column="k, i"),
+        "{goal}": _row_tuple("goals", targets + progress, column="k, i"),
+        "{termination}": "" if progress else _TERMINATION,
         "{store_substep}": _stores("lanes", _STATE_ROWS, _items("x", 8), 16, "k, i"),
         "{store_angles_substep}": _store_angles(16),
         "{period_start}": _row_tuple("lanes", 10, column="k, i", rows=_PERIOD_START_ROWS),
@@ -933,13 +948,28 @@ def generate_steps(task) -> str:
             ),
             "{tracking}": _TRACKING if rule == "track" else "",
             "{success}": success,
+            "{advance}": _fill(
+                _ADVANCE_PROGRESS,
+                {
+                    "{store_progress}": _stores(
+                        "goals", [f"{targets + j}" for j in range(progress)], _items("progress", progress), 8, "k, i"
+                    ),
+                    "{progress_goal}": "("
+                    + ", ".join([*_items("goal", targets), *_items("progress", progress)])
+                    + ("," if targets + progress == 1 else "")
+                    + ")",
+                },
+            )
+            if progress
+            else "",
         },
     )
     rolling_velocity = "engine.centre_velocity(x, trig, m, g, r)"
     contact_velocity = "(lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i])"
     track = "\n    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]" if rule == "track" else ""
     steps = []
-    for t in TABLEAUS:
+    families = contact_families(task)
+    for t in TABLEAUS if "rolling" in families else ():
         integrate = _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks)
         template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
         template = template.replace("{velocity}", rolling_velocity).replace("{track}", track)
@@ -959,7 +989,8 @@ def generate_steps(task) -> str:
         },
     )
     contact = contact.replace("{velocity}", contact_velocity).replace("{track}", track)
-    steps.append(_fill(contact, {**step_fields, "{method}": "contact", "{reset}": _RESETS["contact"][0]}))
+    if "contact" in families:
+        steps.append(_fill(contact, {**step_fields, "{method}": "contact", "{reset}": _RESETS["contact"][0]}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
@@ -973,11 +1004,11 @@ def generate_steps(task) -> str:
             "from rolling_disk_env import engine, pcg64",
             "from rolling_disk_env._generated import kernels",
             "from rolling_disk_env.engine import (",
-            "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,",
-            "    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,",
-            "    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,",
-            "    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,",
-            "    TRACKING_WEIGHT, TRUNCATED,",
+            "    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, DISK_CONSTANTS, EFFORT, ENERGY, FRICTION,",
+            "    GRAVITY, LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, MU, NORMAL_FORCE, PERIOD, PREVIOUS,",
+            "    RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT,",
+            "    SUBSTEPS, SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS,",
+            "    TRACKING_SUM, TRACKING_WEIGHT, TRUNCATED,",
             ")",
             "from rolling_disk_env.jit import kernel, share_kernel",
             f"import {module.__name__} as task",
@@ -997,8 +1028,9 @@ def generate_steps(task) -> str:
         for name, described, extra, friction, _ in _RESETS.values()
     ]
     resets = [
-        _fill(reset.replace("{contact_start}", start), fields)
-        for reset, (*_, start) in zip(resets, _RESETS.values(), strict=True)
+        _fill(reset.replace("{start_velocity}", start), fields)
+        for family, reset, (*_, start) in zip(_RESETS, resets, _RESETS.values(), strict=True)
+        if family in families
     ]
     return header + "\n" + imports + "\n" + "".join(resets) + "".join(steps)
 
@@ -1087,7 +1119,7 @@ def {task}_step_{method}(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         {task}.step_{method}_share(np.int64(k), actions, batch, setup, out)
         {task}.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             {task}.reset_share(np.int64(k), resets, batch, setup, out)
 '''
 """A step kernel of the ``"rolling"`` contact, for one integrator: the step, the next-step reset (where the resets'
@@ -1103,12 +1135,12 @@ def {task}_step_contact(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         {task}.contact_roll_share(np.int64(k), actions, batch, setup, out)
         if batch[0][SLIDES, k, 0] != 0.0:
-            queue = control[7]
+            queue = control[8]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
             {task}.contact_outputs_share(np.int64(k), batch, setup, out)
             {task}.reset_contact_share(np.int64(k), resets, batch, setup, out)
-            if engine.device_step_ended(k, out, control, resets[0]):
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
                 {task}.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -1118,14 +1150,14 @@ def {task}_step_contact_hybrid(arguments):
     (``{task}.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
     those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
-    queue = control[7]
+    queue = control[8]
     j = cuda.grid(1)
     if j < queue[0]:
         k = queue[1 + j]
         {task}.contact_hybrid_share(k, batch, setup, out)
         {task}.contact_outputs_share(k, batch, setup, out)
         {task}.reset_contact_share(k, resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             {task}.reset_contact_share(k, resets, batch, setup, out)
 '''
 CUDA_RESET = '''
@@ -1142,12 +1174,21 @@ CUDA_RESETS = {"reset": "reset_share", "reset_contact": "reset_contact_share"}
 ``"coulomb"`` contacts) and the share functions they call."""
 
 
-def cuda_methods() -> tuple[str, ...]:
-    """The step methods of the CUDA kernels: the engine's integrators (the ``"rolling"`` contact), then
-    ``"contact"`` (the ``"sliding"`` and ``"coulomb"`` contacts, RK4)."""
+def contact_families(task) -> tuple[str, ...]:
+    """The contact families a task's steps are generated for: ``"rolling"`` (a step per integrator) and ``"contact"``
+    (the ``"sliding"`` and ``"coulomb"`` contacts), or the one of the contact the task requires (``Task.contact``)."""
+    if task.contact is None:
+        return ("rolling", "contact")
+    return ("rolling",) if task.contact == "rolling" else ("contact",)
+
+
+def cuda_methods(task) -> tuple[str, ...]:
+    """The step methods of a task's CUDA kernels: the engine's integrators (the ``"rolling"`` contact), then
+    ``"contact"`` (the ``"sliding"`` and ``"coulomb"`` contacts, RK4), those of its :func:`contact_families`."""
     from rolling_disk_env.engine import METHODS
 
-    return (*METHODS, "contact")
+    families = contact_families(task)
+    return (*(METHODS if "rolling" in families else ()), *(("contact",) if "contact" in families else ()))
 
 
 def generate_cuda(tasks) -> str:
@@ -1157,9 +1198,11 @@ def generate_cuda(tasks) -> str:
     names = sorted(tasks)
     source = CUDA_HEADER + "from rolling_disk_env._generated import " + ", ".join(names) + "\n"
     for task in names:
+        families = contact_families(tasks[task])
         for name, reset in CUDA_RESETS.items():
-            source += CUDA_RESET.format(task=task, name=name, reset=reset)
-        for method in cuda_methods():
+            if ("rolling" if name == "reset" else "contact") in families:
+                source += CUDA_RESET.format(task=task, name=name, reset=reset)
+        for method in cuda_methods(tasks[task]):
             if method == "contact":
                 source += CUDA_CONTACT_STEP.format(task=task)
             else:

@@ -42,30 +42,35 @@ MAX_ADAPTIVE_SUBSTEPS = 10_000
 """Steps (accepted or rejected) that ``"dopri5"`` may take in one control period or output interval; past it the
 episode ends with ``"substep_limit"`` (``simulate`` raises) instead of looping on."""
 
-RUNNING, FALLEN, OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT, REACHED = range(7)
+RUNNING, FALLEN, OUT_OF_DOMAIN, SLIPPED, LIFTED_OFF, SUBSTEP_LIMIT, REACHED, OFF_COURSE = range(8)
 """Termination codes of a disk after a step: the episode goes on; the task's own (a task's ``termination`` returns
-RUNNING, FALLEN or REACHED); the integrator leaving the model's domain, the contact needing more friction than
-``friction_coefficient``, the normal force vanishing, ``"dopri5"`` giving up."""
+RUNNING, FALLEN, REACHED or OFF_COURSE, the last where the disk strayed past the task's tracking bound); the
+integrator leaving the model's domain, the contact needing more friction than ``friction_coefficient``, the normal
+force vanishing, ``"dopri5"`` giving up."""
 
 STATE = 0
-TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, STEP_SIZE, TRACKING_SUM = range(8, 16)
-PREVIOUS = 16
-CENTRE_VELOCITY = 24
-TRACKING_WEIGHT = 26
-ANGLES = 27
-SLIDES = 31
-LANES = 32
+TAU_SPIN, TAU_STEER, EFFORT, MASS, GRAVITY, RADIUS, MU, STEP_SIZE, TRACKING_SUM = range(8, 17)
+PREVIOUS = 17
+CENTRE_VELOCITY = 25
+TRACKING_WEIGHT = 27
+ANGLES = 28
+SLIDES = 32
+LANES = 33
 """Rows of a batch's *lanes* array (a column per disk, and idle padding columns), which the step reads and writes in
-place: the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r, dopri5's step
-size (s), the task's tracking error summed over the episode with exponential weights (TRACKING_SUM, :func:`track`),
-the state at the start of the control
-period (8 rows from PREVIOUS: with substeps, and under the ``"sliding"`` and ``"coulomb"`` contacts), under those
-contacts the centre's horizontal velocity (dc1, dc2) (2 rows from CENTRE_VELOCITY), with which the 8 state rows make
-the 10-state, the sum of those weights (TRACKING_WEIGHT), the state's
-``kernels.angles`` (4 rows from ANGLES: the sines and cosines of theta and psi, which the end of a step and the reset
-compute from the state they store and the fixed-step integrators' first stage reads), and under the contacts 1.0
-where the disk slides (SLIDES; 0.0 where it rolls). A loop over the disks reads and writes rows, so it can
+place: the state (8 rows from STATE), the torques (N m) and effort of the action, the disk's m, g, r and friction
+coefficient mu (MU: the ``"sliding"`` and ``"coulomb"`` contacts' coefficient, drawn per episode like the others where
+``params_ranges`` asks; the ``"rolling"`` contact reads its one ``friction_coefficient`` from ``config``), dopri5's
+step size (s), the task's tracking error summed over the episode with exponential weights (TRACKING_SUM,
+:func:`track`), the state at the start of the control period (8 rows from PREVIOUS: with substeps, and under the
+``"sliding"`` and ``"coulomb"`` contacts), under those contacts the centre's horizontal velocity (dc1, dc2) (2 rows
+from CENTRE_VELOCITY), with which the 8 state rows make the 10-state, the sum of those weights (TRACKING_WEIGHT), the
+state's ``kernels.angles`` (4 rows from ANGLES: the sines and cosines of theta and psi, which the end of a step and the
+reset compute from the state they store and the fixed-step integrators' first stage reads), and under the contacts
+1.0 where the disk slides (SLIDES; 0.0 where it rolls). A loop over the disks reads and writes rows, so it can
 vectorize."""
+DISK_CONSTANTS = 4
+"""The disk's constants in the lanes, rows MASS to MU: m, g, r and mu, the order of ``disk_ranges``
+(:class:`SetupArrays`) and of the values a reset draws."""
 
 ENERGY, LAMBDA1, LAMBDA2, NORMAL_FORCE, REQUIRED_FRICTION, REWARD = range(8, 14)
 """Rows of an info block (a column per disk, and padding) after the 8 state rows: energy (J), contact force
@@ -98,7 +103,8 @@ class BatchArrays(NamedTuple):
 
     Attributes:
         lanes: (LANES, columns) float64, the rows described at :data:`LANES`.
-        goals: (goal size, columns) float64, each episode's targets (the task's ``goal_names``).
+        goals: (goal size, columns) float64, each episode's targets and task state (the task's ``goal_names``, then
+            its ``progress_names``).
         steps: (columns,) int64, steps since each episode started.
     """
 
@@ -117,7 +123,7 @@ class SetupArrays(NamedTuple):
         settings: the task's options (its ``setting_names``).
         weights: the reward terms' weights.
         bounds: the observation's bounds (float32).
-        disk_ranges: (3, 3): per disk constant (m, g, r), its range and whether it is drawn.
+        disk_ranges: (DISK_CONSTANTS, 3): per disk constant (m, g, r, mu), its range and whether it is drawn.
         ranges: (drawn values, 2): the ranges of the task's goal and initial state.
     """
 
@@ -247,6 +253,8 @@ class DeviceControl(NamedTuple):
         final: the :class:`OutputArrays` (split into N shares) of the disks' last outputs, where they ended
             (SAME_STEP).
         final_mask: (N,) bool, the disks whose episode the step ended (SAME_STEP).
+        final_disk: (DISK_CONSTANTS, N) float64, the disks' constants (m, g, r, mu: lanes rows MASS to MU) where they
+            ended (SAME_STEP), for ``final_info``'s drawn values.
         mode: :data:`NEXT_STEP`, :data:`SAME_STEP` or :data:`DISABLED`.
         queue: (N + 1,) int64, under the ``"sliding"`` and ``"coulomb"`` contacts: ``queue[0]`` disks that the step's
             rolling pass left to the hybrid, ``queue[1:]`` those disks (in no set order), for the step's second kernel;
@@ -259,6 +267,7 @@ class DeviceControl(NamedTuple):
     dones: np.ndarray
     final: tuple
     final_mask: np.ndarray
+    final_disk: np.ndarray
     mode: int
     queue: np.ndarray
 
@@ -268,7 +277,7 @@ def device_step_due(k, control, mask) -> bool:
     """Whether disk k of a device batch steps (not where the check found a non-finite action, or under DISABLED an
     ended disk: then no disk steps), and its entry of the resets' ``mask``: under NEXT_STEP a disk whose episode ended
     at its previous step starts a new one in this step, its action ignored; otherwise no disk yet."""
-    status, ended, mode = control[0], control[1], control[6]
+    status, ended, mode = control[0], control[1], control[7]
     if status[0] < ended.shape[0] or status[1] < ended.shape[0]:
         return False
     mask[k] = ended[k] and mode == NEXT_STEP
@@ -276,13 +285,13 @@ def device_step_due(k, control, mask) -> bool:
 
 
 @inline_kernel
-def device_step_ended(k, out, control, mask) -> bool:
+def device_step_ended(k, out, lanes, control, mask) -> bool:
     """After disk k's step (and its next-step reset): its reward as float32 and its flags terminated and truncated
     into ``control``, and whether its episode ended; under SAME_STEP, where it ended, its outputs kept in
-    ``control.final`` and its entry of the resets' ``mask`` set: returns True where the disk must start its next
-    episode now (the kernel then resets it)."""
+    ``control.final``, its constants (``lanes`` rows MASS to MU) in ``control.final_disk``, and its entry of the
+    resets' ``mask`` set: returns True where the disk must start its next episode now (the kernel then resets it)."""
     observations, info, flags, codes = out
-    _, ended, rewards, dones, final, final_mask, mode, _ = control
+    _, ended, rewards, dones, final, final_mask, final_disk, mode, _ = control
     terminated, truncated = flags[TERMINATED, k, 0], flags[TRUNCATED, k, 0]
     rewards[k] = np.float32(info[REWARD, k, 0])
     dones[0, k], dones[1, k] = terminated, truncated
@@ -300,6 +309,8 @@ def device_step_ended(k, out, control, mask) -> bool:
         for j in range(flags.shape[0]):
             kept_flags[j, k, 0] = flags[j, k, 0]
         kept_codes[k, 0] = codes[k, 0]
+        for j in range(DISK_CONSTANTS):
+            final_disk[j, k] = lanes[MASS + j, k, 0]
         mask[k] = True
     return now
 

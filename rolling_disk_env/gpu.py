@@ -285,6 +285,7 @@ class DeviceBatch(DiskBatch):
             flags: views of the same block.
         final: SAME_STEP's last outputs of the disks that ended at the latest step (the rows of :attr:`final_mask`).
         final_mask: (N,) bool.
+        final_disk: (DISK_CONSTANTS, N) float64, their constants (m, g, r, mu) there.
         ended: (N,) bool, the disks whose episode ended at their latest step (NEXT_STEP and DISABLED).
         steps_tensor: (N,) int64, each disk's steps in its episode (it truncates at ``max_episode_steps``);
             writable.
@@ -315,6 +316,7 @@ class DeviceBatch(DiskBatch):
         self.out = Outputs(n, (observations.view(n, 1, size), *on_device))
         self.final = Outputs(n, tuple(torch.zeros_like(array) for array in self.out.shares))
         self.final_mask = torch.zeros(n, dtype=torch.bool, device=self.device)
+        self.final_disk = torch.zeros((engine.DISK_CONSTANTS, n), dtype=torch.float64, device=self.device)
         self.ended = torch.zeros(n, dtype=torch.bool, device=self.device)
         self.status = torch.full((2,), n, dtype=torch.int64, device=self.device)
         self.queue = torch.zeros(n + 1, dtype=torch.int64, device=self.device)
@@ -364,6 +366,14 @@ class DeviceBatch(DiskBatch):
         steps = self._device[0][2]
         return (torch.from_numpy(steps) if SIMULATED else torch.as_tensor(steps, device=self.device)).view(-1)
 
+    @functools.cached_property
+    def disk_tensor(self) -> torch.Tensor:
+        """(DISK_CONSTANTS, N) float64: each disk's constants (m, g, r, mu: the lanes rows MASS to MU) in its current
+        episode, a view of device memory."""
+        lanes = self._device[0][0]
+        lanes = torch.from_numpy(lanes) if SIMULATED else torch.as_tensor(lanes, device=self.device)
+        return lanes.view(engine.LANES, -1)[engine.MASS : engine.MU + 1]
+
     def _prepared(self) -> tuple[Launch, Launch, Launch, Launch | None]:
         """The launches of the step, the reset, the check and the step's hybrid pass (None under the ``"rolling"``
         contact), with the arguments of :class:`DeviceBatch`'s buffers."""
@@ -374,7 +384,7 @@ class DeviceBatch(DiskBatch):
             resets = (view(self.mask), self.rngs, self._uniforms, view(self.given))
             control = (
                 view(self.status), view(self.ended), view(self.rewards), view(self.dones), final,
-                view(self.final_mask), self.mode, view(self.queue),
+                view(self.final_mask), view(self.final_disk), self.mode, view(self.queue),
             )  # fmt: skip
             step, reset, check, hybrid = self._kernels
             actions, disabled = view(self.actions), self.mode == engine.DISABLED

@@ -1,10 +1,11 @@
 """Pygame scene of RollingDisk-v0: a perspective view of the disk on its ground plane.
 
-Drawn back to front: a ground grid (1 m squares), the task's target circle, the centre's track, the disk's two
-projections as in the paper's figure 1 (in black: its shadow straight down on the ground and its projection along +y
-on a vertical wall behind it), then the disk itself with a spoke and a rim marker that turn with the spin phi. A text
-line gives time, lean and rates; a legend explains the colours. The camera follows the disk smoothly, framing the
-target circle as well while the disk is near it. ``"rgb_array"`` draws on an off-screen surface and never opens a
+Drawn back to front: a ground grid (1 m squares), the task's marks (its target circle, targets, waypoints or figure
+eight: :meth:`rolling_disk_env.tasks.Task.marks`), the centre's track, the disk's two projections as in the paper's
+figure 1 (in black: its shadow straight down on the ground and its projection along +y on a vertical wall behind
+it), then the disk itself with a spoke and a rim marker that turn with the spin phi. A text line gives time, lean and
+rates; a legend explains the colours. The camera follows the disk smoothly, framing the task's marks as well while
+the disk is near them. ``"rgb_array"`` draws on an off-screen surface and never opens a
 display.
 """
 
@@ -36,9 +37,11 @@ LEGEND = {
     "shadow": "shadow on the ground",
     "wall": "projection on a wall (along +y)",
     "track": "track of the centre",
-    "target": "target circle",
 }
-"""What the legend explains, by what it draws beside each line (the target circle's line goes last)."""
+"""What the legend explains, by what it draws beside each line; the task's marks (its ``mark_label``) go last."""
+FRAMED_FROM = 2.0
+"""Disk radii. The camera frames the task's marks with the disk when they spread over at least this much (a point
+target's small circle does not)."""
 LEGEND_LINE = 14
 """Pixels per line of the legend."""
 LEGEND_TOP = 30
@@ -133,28 +136,38 @@ class DiskRenderer:
         self._distance = 0.0
         self._time = 0.0
 
-    def _view(self, state, params: DiskParams, goal: dict) -> tuple[np.ndarray, float]:
-        """Where the camera should look (m, world) and from how far (m): framing the target circle and the disk
-        while the disk is within the circle's radius of it, else the disk alone."""
+    @staticmethod
+    def _framed(marks: list[np.ndarray], params: DiskParams) -> np.ndarray | None:
+        """The points of the task's marks the camera frames, (n, 2), or None where they spread over less than
+        :data:`FRAMED_FROM` disk radii."""
+        if not marks:
+            return None
+        points = np.vstack(marks)
+        extent = np.linalg.norm(points.max(axis=0) - points.min(axis=0)) / 2
+        return points if extent >= FRAMED_FROM * params.radius else None
+
+    def _view(self, state, params: DiskParams, framed: np.ndarray | None) -> tuple[np.ndarray, float]:
+        """Where the camera should look (m, world) and from how far (m): framing the marks' points ``framed`` and the
+        disk while the disk is within twice their half-extent of their centre, else the disk alone."""
         r = params.radius
         disk = np.array([state[0], state[1], 0.6 * r])
-        if "radius" not in goal:
+        if framed is None:
             return disk, 7 * r
-        radius, centre = goal["radius"], np.array([goal["cx"], goal["cy"]])
-        if np.linalg.norm(disk[:2] - centre) > 2 * radius:
+        low, high = framed.min(axis=0), framed.max(axis=0)
+        if np.linalg.norm(disk[:2] - (low + high) / 2) > np.linalg.norm(high - low):
             return disk, 12 * r
-        angles = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
-        circle = np.column_stack([centre + radius * np.column_stack([np.cos(angles), np.sin(angles)]), 0 * angles])
+        step = max(1, len(framed) // 48)
+        ground = np.column_stack([framed[::step], np.zeros(len(framed[::step]))])
         corners = np.array([[dx, dy, dz] for dx in (-r, r) for dy in (-r, r) for dz in (0.0, 2 * r)])
-        points = np.vstack([circle, disk * [1, 1, 0] + corners])
+        points = np.vstack([ground, disk * [1, 1, 0] + corners])
         # Below the text line and the legend, which sit in the upper left corner of this view.
-        return framing(points, CIRCLE_VIEW, top=LEGEND_TOP + LEGEND_LINE * len(LEGEND) + 12)
+        return framing(points, CIRCLE_VIEW, top=LEGEND_TOP + LEGEND_LINE * (len(LEGEND) + 1) + 12)
 
-    def _camera(self, time: float, state, params: DiskParams, goal: dict) -> Camera:
+    def _camera(self, time: float, state, params: DiskParams, framed: np.ndarray | None) -> Camera:
         """The camera of a frame at ``time`` (s): its look-at point and distance follow :meth:`_view` with the lag
         :data:`CAMERA_LAG`, and never so far behind that the disk leaves the picture; a new episode (time not
         after the previous frame's) starts on the view."""
-        target, distance = self._view(state, params, goal)
+        target, distance = self._view(state, params, framed)
         if self._focus is None or time <= self._time:
             self._focus, self._distance = target, distance
         else:
@@ -167,29 +180,22 @@ class DiskRenderer:
             if np.linalg.norm(lag) > limit:
                 self._focus = target + lag * (limit / np.linalg.norm(lag))
         self._time = time
-        direction = CIRCLE_VIEW if "radius" in goal else DISK_VIEW
+        direction = CIRCLE_VIEW if framed is not None else DISK_VIEW
         return Camera(self._focus + self._distance * direction, self._focus)
 
     def draw(self, time: float, state, params: DiskParams, goal: dict, task, track) -> np.ndarray | None:
-        """Draws one frame of ``state`` (8 floats) at ``time`` (s) with the disk ``params``, the task's ``goal``
-        and the centre's track (a sequence of (c1, c2), m)."""
+        """Draws one frame of ``state`` (8 floats) at ``time`` (s) with the disk ``params``, the task's marks for its
+        ``goal`` and the centre's track (a sequence of (c1, c2), m)."""
         pygame = self.pygame
         surface = self.surface
         surface.fill(BACKGROUND)
-        camera = self._camera(time, state, params, goal)
+        marks = task.marks(goal)
+        camera = self._camera(time, state, params, self._framed(marks, params))
 
         self._draw_grid(camera)
-        if "radius" in goal:
-            angles = np.linspace(0, 2 * math.pi, 96)
-            circle = np.stack(
-                [
-                    goal["cx"] + goal["radius"] * np.cos(angles),
-                    goal["cy"] + goal["radius"] * np.sin(angles),
-                    np.zeros_like(angles),
-                ],
-                axis=1,
-            )
-            pygame.draw.lines(surface, TARGET, True, camera.project(circle).tolist(), 2)
+        for mark in marks:
+            ground = np.column_stack([mark, np.zeros(len(mark))])
+            pygame.draw.lines(surface, TARGET, False, camera.project(ground).tolist(), 2)
         if track is not None and len(track) > 1:
             points = np.array(track)
             path = np.column_stack([points, np.zeros(len(points))])
@@ -226,7 +232,7 @@ class DiskRenderer:
             f"   heading rate {state[7]:+5.2f} rad/s   task {task.name}"
         )
         surface.blit(self.font.render(text, True, TEXT), (8, 8))
-        self._draw_legend("radius" in goal)
+        self._draw_legend(task.mark_label if marks else None)
 
         if self.render_mode == "human":
             pygame.event.pump()
@@ -247,21 +253,21 @@ class DiskRenderer:
                     self.pygame.draw.line(self.surface, GRID, *camera.project(segment).tolist(), 1)
 
     @staticmethod
-    def legend_entries(with_target: bool) -> list[str]:
-        """The legend's lines, with the target circle's if there is one."""
-        return list(LEGEND.values())[: len(LEGEND) if with_target else len(LEGEND) - 1]
+    def legend_entries(marks: str | None) -> list[str]:
+        """The legend's lines, with the task's marks' (their label ``marks``) if there are any."""
+        return [*LEGEND.values(), *([marks] if marks else [])]
 
-    def _draw_legend(self, with_target: bool) -> None:
-        """What the colours mean, in the corner the scene leaves emptiest: upper left when looking over a target
-        circle (its far side looks narrowest), lower right when looking at the disk from the side (the wall is
+    def _draw_legend(self, marks: str | None) -> None:
+        """What the colours mean, in the corner the scene leaves emptiest: upper left when looking over the task's
+        marks (their far side looks narrowest), lower right when looking at the disk from the side (the wall is
         upper left)."""
         pygame, surface = self.pygame, self.surface
-        entries = list(zip(LEGEND, self.legend_entries(with_target)))
+        entries = list(zip([*LEGEND, "marks"], self.legend_entries(marks)))
         line, swatch, pad = LEGEND_LINE, 20, 4
         labels = [self.legend_font.render(label, True, TEXT) for _, label in entries]
         width = swatch + 6 + max(label.get_width() for label in labels) + 2 * pad
         height = line * len(entries) + 2 * pad
-        left, top = (8, LEGEND_TOP) if with_target else (WIDTH - width - 8, HEIGHT - height - 8)
+        left, top = (8, LEGEND_TOP) if marks else (WIDTH - width - 8, HEIGHT - height - 8)
         pygame.draw.rect(surface, LEGEND_BACKGROUND, (left, top, width, height))
         pygame.draw.rect(surface, GRID, (left, top, width, height), 1)
         for row, ((kind, _), label) in enumerate(zip(entries, labels)):

@@ -13,6 +13,7 @@ import pytest
 
 import rolling_disk_env as rd
 from rolling_disk_env import codegen
+from rolling_disk_env.constants import ENGINE_METHODS
 from rolling_disk_env.envs.batch import DiskBatch
 from rolling_disk_env.envs.config import EnvConfig
 from tests.test_torch_env import make
@@ -60,7 +61,8 @@ def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
 KERNELS = [
     (task, name)
     for task in sorted(rd.TASK_IDS)
-    for name in (*codegen.CUDA_RESETS, *(f"step_{m}" for m in codegen.cuda_methods()), "step_contact_hybrid")
+    for name in (*codegen.CUDA_RESETS, *(f"step_{m}" for m in ENGINE_METHODS), "step_contact", "step_contact_hybrid")
+    if hasattr(kernels, f"{task}_{name}")  # the contact families of each task (codegen.contact_families)
 ]
 
 

@@ -104,7 +104,7 @@ def test_a_legend_explains_the_shadow_and_the_wall_projection(task):
     env.reset(seed=0)
     frame = env.render()
     renderer = env.unwrapped._renderer
-    assert renderer.legend_entries(task == "circle") == [
+    assert renderer.legend_entries("target circle" if task == "circle" else None) == [
         "shadow on the ground",
         "projection on a wall (along +y)",
         "track of the centre",

@@ -19,7 +19,7 @@ from numba import cuda
 
 from rolling_disk_env import engine
 from rolling_disk_env.engine import SLIDES
-from rolling_disk_env._generated import circle, goto, upright
+from rolling_disk_env._generated import circle, eight, goto, ice, recovery, upright, waypoints
 
 
 def circle_reset(arguments):
@@ -46,7 +46,7 @@ def circle_step_euler(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         circle.step_euler_share(np.int64(k), actions, batch, setup, out)
         circle.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -58,7 +58,7 @@ def circle_step_symplectic_euler(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         circle.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
         circle.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -70,7 +70,7 @@ def circle_step_rk4(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         circle.step_rk4_share(np.int64(k), actions, batch, setup, out)
         circle.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -82,7 +82,7 @@ def circle_step_dopri5(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         circle.step_dopri5_share(np.int64(k), actions, batch, setup, out)
         circle.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             circle.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -95,12 +95,12 @@ def circle_step_contact(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         circle.contact_roll_share(np.int64(k), actions, batch, setup, out)
         if batch[0][SLIDES, k, 0] != 0.0:
-            queue = control[7]
+            queue = control[8]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
             circle.contact_outputs_share(np.int64(k), batch, setup, out)
             circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
-            if engine.device_step_ended(k, out, control, resets[0]):
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
                 circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -110,15 +110,114 @@ def circle_step_contact_hybrid(arguments):
     (``circle.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
     those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
-    queue = control[7]
+    queue = control[8]
     j = cuda.grid(1)
     if j < queue[0]:
         k = queue[1 + j]
         circle.contact_hybrid_share(k, batch, setup, out)
         circle.contact_outputs_share(k, batch, setup, out)
         circle.reset_contact_share(k, resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             circle.reset_contact_share(k, resets, batch, setup, out)
+
+
+def eight_reset(arguments):
+    """A new episode of task 'eight' in disk k, if the mask of the resets holds it (``eight.reset_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_reset_contact(arguments):
+    """A new episode of task 'eight' in disk k, if the mask of the resets holds it (``eight.reset_contact_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        eight.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_euler(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_euler_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_euler_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_symplectic_euler(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_symplectic_euler_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_rk4(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_rk4_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_rk4_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_dopri5(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_dopri5_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_dopri5_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_contact(arguments):
+    """The rolling pass of a control period of disk k of task 'eight' under the "sliding" or "coulomb" contact
+    (``eight.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`eight_step_contact_hybrid`, the others end their step here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            eight.contact_outputs_share(np.int64(k), batch, setup, out)
+            eight.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                eight.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task 'eight' that :func:`eight_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``eight.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        eight.contact_hybrid_share(k, batch, setup, out)
+        eight.contact_outputs_share(k, batch, setup, out)
+        eight.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_contact_share(k, resets, batch, setup, out)
 
 
 def goto_reset(arguments):
@@ -145,7 +244,7 @@ def goto_step_euler(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         goto.step_euler_share(np.int64(k), actions, batch, setup, out)
         goto.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -157,7 +256,7 @@ def goto_step_symplectic_euler(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         goto.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
         goto.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -169,7 +268,7 @@ def goto_step_rk4(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         goto.step_rk4_share(np.int64(k), actions, batch, setup, out)
         goto.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -181,7 +280,7 @@ def goto_step_dopri5(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         goto.step_dopri5_share(np.int64(k), actions, batch, setup, out)
         goto.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             goto.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -194,12 +293,12 @@ def goto_step_contact(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         goto.contact_roll_share(np.int64(k), actions, batch, setup, out)
         if batch[0][SLIDES, k, 0] != 0.0:
-            queue = control[7]
+            queue = control[8]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
             goto.contact_outputs_share(np.int64(k), batch, setup, out)
             goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
-            if engine.device_step_ended(k, out, control, resets[0]):
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
                 goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -209,15 +308,157 @@ def goto_step_contact_hybrid(arguments):
     (``goto.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
     those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
-    queue = control[7]
+    queue = control[8]
     j = cuda.grid(1)
     if j < queue[0]:
         k = queue[1 + j]
         goto.contact_hybrid_share(k, batch, setup, out)
         goto.contact_outputs_share(k, batch, setup, out)
         goto.reset_contact_share(k, resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             goto.reset_contact_share(k, resets, batch, setup, out)
+
+
+def ice_reset_contact(arguments):
+    """A new episode of task 'ice' in disk k, if the mask of the resets holds it (``ice.reset_contact_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        ice.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def ice_step_contact(arguments):
+    """The rolling pass of a control period of disk k of task 'ice' under the "sliding" or "coulomb" contact
+    (``ice.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`ice_step_contact_hybrid`, the others end their step here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        ice.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            ice.contact_outputs_share(np.int64(k), batch, setup, out)
+            ice.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                ice.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def ice_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task 'ice' that :func:`ice_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``ice.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        ice.contact_hybrid_share(k, batch, setup, out)
+        ice.contact_outputs_share(k, batch, setup, out)
+        ice.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            ice.reset_contact_share(k, resets, batch, setup, out)
+
+
+def recovery_reset(arguments):
+    """A new episode of task 'recovery' in disk k, if the mask of the resets holds it (``recovery.reset_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_reset_contact(arguments):
+    """A new episode of task 'recovery' in disk k, if the mask of the resets holds it (``recovery.reset_contact_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        recovery.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_euler(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_euler_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_euler_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_symplectic_euler(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_symplectic_euler_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_rk4(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_rk4_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_rk4_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_dopri5(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_dopri5_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_dopri5_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_contact(arguments):
+    """The rolling pass of a control period of disk k of task 'recovery' under the "sliding" or "coulomb" contact
+    (``recovery.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`recovery_step_contact_hybrid`, the others end their step here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            recovery.contact_outputs_share(np.int64(k), batch, setup, out)
+            recovery.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                recovery.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task 'recovery' that :func:`recovery_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``recovery.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        recovery.contact_hybrid_share(k, batch, setup, out)
+        recovery.contact_outputs_share(k, batch, setup, out)
+        recovery.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_contact_share(k, resets, batch, setup, out)
 
 
 def upright_reset(arguments):
@@ -244,7 +485,7 @@ def upright_step_euler(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         upright.step_euler_share(np.int64(k), actions, batch, setup, out)
         upright.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -256,7 +497,7 @@ def upright_step_symplectic_euler(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         upright.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
         upright.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -268,7 +509,7 @@ def upright_step_rk4(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         upright.step_rk4_share(np.int64(k), actions, batch, setup, out)
         upright.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -280,7 +521,7 @@ def upright_step_dopri5(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         upright.step_dopri5_share(np.int64(k), actions, batch, setup, out)
         upright.reset_share(np.int64(k), resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             upright.reset_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -293,12 +534,12 @@ def upright_step_contact(arguments):
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
         upright.contact_roll_share(np.int64(k), actions, batch, setup, out)
         if batch[0][SLIDES, k, 0] != 0.0:
-            queue = control[7]
+            queue = control[8]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
             upright.contact_outputs_share(np.int64(k), batch, setup, out)
             upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
-            if engine.device_step_ended(k, out, control, resets[0]):
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
                 upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
@@ -308,12 +549,111 @@ def upright_step_contact_hybrid(arguments):
     (``upright.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
     those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
-    queue = control[7]
+    queue = control[8]
     j = cuda.grid(1)
     if j < queue[0]:
         k = queue[1 + j]
         upright.contact_hybrid_share(k, batch, setup, out)
         upright.contact_outputs_share(k, batch, setup, out)
         upright.reset_contact_share(k, resets, batch, setup, out)
-        if engine.device_step_ended(k, out, control, resets[0]):
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             upright.reset_contact_share(k, resets, batch, setup, out)
+
+
+def waypoints_reset(arguments):
+    """A new episode of task 'waypoints' in disk k, if the mask of the resets holds it (``waypoints.reset_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_reset_contact(arguments):
+    """A new episode of task 'waypoints' in disk k, if the mask of the resets holds it (``waypoints.reset_contact_share``)."""
+    resets, batch, setup, out = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1]:
+        waypoints.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_euler(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_euler_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_euler_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_symplectic_euler(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_symplectic_euler_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_symplectic_euler_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_rk4(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_rk4_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_rk4_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_dopri5(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_dopri5_share``), its autoreset decided on the
+    device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_dopri5_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_contact(arguments):
+    """The rolling pass of a control period of disk k of task 'waypoints' under the "sliding" or "coulomb" contact
+    (``waypoints.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`waypoints_step_contact_hybrid`, the others end their step here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            waypoints.contact_outputs_share(np.int64(k), batch, setup, out)
+            waypoints.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                waypoints.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_contact_hybrid(arguments):
+    """The hybrid pass of the disks of task 'waypoints' that :func:`waypoints_step_contact` queued, thread j taking the j-th:
+    the disks that slide run together, instead of holding the warps of the disks that roll
+    (``waypoints.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
+    those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        waypoints.contact_hybrid_share(k, batch, setup, out)
+        waypoints.contact_outputs_share(k, batch, setup, out)
+        waypoints.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_contact_share(k, resets, batch, setup, out)

@@ -18,16 +18,16 @@ import numpy as np
 from rolling_disk_env import engine, pcg64
 from rolling_disk_env._generated import kernels
 from rolling_disk_env.engine import (
-    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, EFFORT, ENERGY, FRICTION, GRAVITY, LAMBDA1,
-    LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, NORMAL_FORCE, PERIOD, PREVIOUS, RADIUS, REACHED,
-    REQUIRED_FRICTION, REWARD, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT, SUBSTEPS,
-    SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS, TRACKING_SUM,
-    TRACKING_WEIGHT, TRUNCATED,
+    ANGLES, ATOL, CENTRE_VELOCITY, CONTACT, COULOMB, DISK_CONSTANTS, EFFORT, ENERGY, FRICTION,
+    GRAVITY, LAMBDA1, LAMBDA2, LIFTED_OFF, MASS, MAX_STEPS, MU, NORMAL_FORCE, PERIOD, PREVIOUS,
+    RADIUS, REACHED, REQUIRED_FRICTION, REWARD, RTOL, RUNNING, SLIDES, STEP_SIZE, SUBSTEP_LIMIT,
+    SUBSTEPS, SUCCESS, SUCCESS_BOUND, SUCCESS_DECAY, TAU_SPIN, TAU_STEER, TERMINATED, TERMS,
+    TRACKING_SUM, TRACKING_WEIGHT, TRUNCATED,
 )
 from rolling_disk_env.jit import kernel, share_kernel
 import rolling_disk_env.tasks.upright as task
 
-TASK_SOURCE = "ba6072f60cdd1a1f39faae4d84d4d1ecfda094a5cab9e15ed9803392263275e4"
+TASK_SOURCE = "996aebbaf5a4401103f6aeb4ae9c8684d2e9db52a40495bae02b89aebe9cd7c1"
 """The sha256 of the task module these steps were generated from."""
 OBSERVATION = TERMS + 4
 """The first row of the observation in an info block, after the reward terms."""
@@ -40,7 +40,7 @@ CONTACT_ROWS = OBSERVATION + OBSERVATION_SIZE
 @kernel
 def reset_share(k, resets, batch, setup, out):
     """Starts an episode in each disk of share k that the mask of ``resets`` holds: its disk constants
-    (those randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its
+    (those randomized, in the order m, g, r, mu), then the task's goal and initial state from the values drawn in its
     ranges, all from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
     the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
@@ -62,7 +62,7 @@ def reset_share(k, resets, batch, setup, out):
             for j in range(uniforms.shape[1]):
                 uniforms[d, j] = pcg64.random(rngs[d])
         drawn = 0
-        for j in range(3):
+        for j in range(DISK_CONSTANTS):
             low, high = disk_ranges[j, 0], disk_ranges[j, 1]
             lanes[MASS + j, k, i] = low
             if disk_ranges[j, 2]:
@@ -95,10 +95,11 @@ def reset_share(k, resets, batch, setup, out):
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i] = contact[4]
         codes[k, i] = code
+        velocity = engine.centre_velocity(x, trig, disk[0], disk[1], disk[2])
         info[REWARD, k, i] = 0.0
         for j in range(TERMS, OBSERVATION):
             info[j, k, i] = 0.0
-        observation = task.observe(x, trig, goal, options)
+        observation = task.observe(x, trig, velocity, goal, options)
         for j in range(len(observation)):
             info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
         flags[TERMINATED, k, i] = False
@@ -109,7 +110,7 @@ def reset_share(k, resets, batch, setup, out):
 @kernel
 def reset_contact_share(k, resets, batch, setup, out):
     """Starts an episode in each disk of share k that the mask of ``resets`` holds under the ``"sliding"`` or ``"coulomb"`` contact: its disk constants
-    (those randomized, in the order m, g, r), then the task's goal and initial state from the values drawn in its
+    (those randomized, in the order m, g, r, mu), then the task's goal and initial state from the values drawn in its
     ranges, all from the episode's uniforms in [0, 1), drawn from its PCG64 state (the stream of
     ``numpy.random.Generator.random``), or taken as given in ``uniforms`` when ``rngs`` has no rows (the uniforms of
     the goal and the initial state are then overwritten by the values drawn in their ranges, which ``task.start``
@@ -123,7 +124,7 @@ def reset_contact_share(k, resets, batch, setup, out):
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     options = (settings[0], settings[1])
-    friction, coulomb = config[FRICTION], config[CONTACT] == COULOMB
+    coulomb = config[CONTACT] == COULOMB
     first = k * lanes.shape[2]
     for i in range(min(lanes.shape[2], mask.shape[0] - first)):
         d = first + i
@@ -133,7 +134,7 @@ def reset_contact_share(k, resets, batch, setup, out):
             for j in range(uniforms.shape[1]):
                 uniforms[d, j] = pcg64.random(rngs[d])
         drawn = 0
-        for j in range(3):
+        for j in range(DISK_CONSTANTS):
             low, high = disk_ranges[j, 0], disk_ranges[j, 1]
             lanes[MASS + j, k, i] = low
             if disk_ranges[j, 2]:
@@ -166,16 +167,7 @@ def reset_contact_share(k, resets, batch, setup, out):
         info[LAMBDA2, k, i], info[NORMAL_FORCE, k, i] = contact[2], contact[3]
         info[REQUIRED_FRICTION, k, i] = contact[4]
         codes[k, i] = code
-        info[REWARD, k, i] = 0.0
-        for j in range(TERMS, OBSERVATION):
-            info[j, k, i] = 0.0
-        observation = task.observe(x, trig, goal, options)
-        for j in range(len(observation)):
-            info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
-        flags[TERMINATED, k, i] = False
-        flags[TRUNCATED, k, i] = False
-        flags[SUCCESS, k, i] = True
-        state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), friction, coulomb, disk)
+        state, contact = engine.contact_start(x, (given[d, 8], given[d, 9]), lanes[MU, k, i], coulomb, disk)
         lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = state[5], state[6]
         lanes[SLIDES, k, i] = contact[7]
         info[ENERGY, k, i], info[LAMBDA1, k, i] = contact[0], contact[1]
@@ -184,6 +176,16 @@ def reset_contact_share(k, resets, batch, setup, out):
         info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
         info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
         info[CONTACT_ROWS + 4, k, i] = contact[7]
+        velocity = (state[5], state[6])
+        info[REWARD, k, i] = 0.0
+        for j in range(TERMS, OBSERVATION):
+            info[j, k, i] = 0.0
+        observation = task.observe(x, trig, velocity, goal, options)
+        for j in range(len(observation)):
+            info[OBSERVATION + j, k, i] = observations[k, i, j] = min(max(observation[j], -bounds[j]), bounds[j])
+        flags[TERMINATED, k, i] = False
+        flags[TRUNCATED, k, i] = False
+        flags[SUCCESS, k, i] = True
 
 
 @kernel
@@ -279,11 +281,12 @@ def step_euler_share(k, actions, batch, setup, out):
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = codes[k, i]
+        velocity = engine.centre_velocity(x, trig, m, g, r)
         steps[k, i] += 1
-        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, velocity, code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, trig, goal, settings)
+        observation = task.observe(x, trig, velocity, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -387,11 +390,12 @@ def step_symplectic_euler_share(k, actions, batch, setup, out):
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = codes[k, i]
+        velocity = engine.centre_velocity(x, trig, m, g, r)
         steps[k, i] += 1
-        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, velocity, code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, trig, goal, settings)
+        observation = task.observe(x, trig, velocity, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -495,11 +499,12 @@ def step_rk4_share(k, actions, batch, setup, out):
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = codes[k, i]
+        velocity = engine.centre_velocity(x, trig, m, g, r)
         steps[k, i] += 1
-        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, velocity, code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, trig, goal, settings)
+        observation = task.observe(x, trig, velocity, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -584,11 +589,12 @@ def step_dopri5_share(k, actions, batch, setup, out):
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = codes[k, i]
+        velocity = engine.centre_velocity(x, trig, m, g, r)
         steps[k, i] += 1
-        terms = task.reward_terms(x, trig, engine.centre_velocity(x, trig, m, g, r), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, velocity, code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, trig, goal, settings)
+        observation = task.observe(x, trig, velocity, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])
@@ -610,7 +616,6 @@ def contact_roll_share(k, actions, batch, setup, out):
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1])
-    friction = config[FRICTION]
     disks = min(lanes.shape[2], actions.shape[0] - k * lanes.shape[2])  # not counting the padding
     engine.action_torques(actions, actuators, lanes, k, disks)
     period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
@@ -624,7 +629,7 @@ def contact_roll_share(k, actions, batch, setup, out):
     for substep in range(substeps):
         for i in range(lanes.shape[2]):
             tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
-            m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+            m, g, r, friction = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i], lanes[MU, k, i]
             x = (
                 lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
                 lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
@@ -640,7 +645,7 @@ def contact_roll_share(k, actions, batch, setup, out):
             lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i] = trig[2], trig[3]
     for i in range(lanes.shape[2]):
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
-        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        m, g, r, friction = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i], lanes[MU, k, i]
         x = (
             lanes[0, k, i], lanes[1, k, i], lanes[2, k, i], lanes[3, k, i],
             lanes[4, k, i], lanes[5, k, i], lanes[6, k, i], lanes[7, k, i],
@@ -680,14 +685,13 @@ def contact_hybrid_share(k, batch, setup, out):
     config, actuators, settings, weights, bounds, disk_ranges, ranges = setup
     observations, info, flags, codes = out
     settings = (settings[0], settings[1])
-    friction = config[FRICTION]
     period, substeps, coulomb = config[PERIOD], int(config[SUBSTEPS]), config[CONTACT] == COULOMB
     # The disks marked: the period again, from its start, under the hybrid (a scalar loop: the modes branch).
     for i in range(lanes.shape[2]):
         if lanes[SLIDES, k, i] == 0.0:
             continue
         tau_spin, tau_steer = lanes[TAU_SPIN, k, i], lanes[TAU_STEER, k, i]
-        m, g, r = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i]
+        m, g, r, friction = lanes[MASS, k, i], lanes[GRAVITY, k, i], lanes[RADIUS, k, i], lanes[MU, k, i]
         torques, disk = (tau_spin, tau_steer), (m, g, r)
         state = (
             lanes[PREVIOUS + 0, k, i], lanes[PREVIOUS + 1, k, i], lanes[PREVIOUS + 2, k, i], lanes[PREVIOUS + 3, k, i],
@@ -742,11 +746,12 @@ def contact_outputs_share(k, batch, setup, out):
         trig = (lanes[ANGLES + 0, k, i], lanes[ANGLES + 1, k, i], lanes[ANGLES + 2, k, i], lanes[ANGLES + 3, k, i])
         goal = (goals[0, k, i],)
         code = codes[k, i]
+        velocity = (lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i])
         steps[k, i] += 1
-        terms = task.reward_terms(x, trig, (lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i]), code, lanes[EFFORT, k, i], goal, settings)
+        terms = task.reward_terms(x, trig, velocity, code, lanes[EFFORT, k, i], goal, settings)
         info[TERMS + 0, k, i], info[TERMS + 1, k, i], info[TERMS + 2, k, i], info[TERMS + 3, k, i] = terms[0], terms[1], terms[2], terms[3]
         info[REWARD, k, i] = weights[0] * terms[0] + weights[1] * terms[1] + weights[2] * terms[2] + weights[3] * terms[3]
-        observation = task.observe(x, trig, goal, settings)
+        observation = task.observe(x, trig, velocity, goal, settings)
         info[OBSERVATION + 0, k, i] = min(max(observation[0], -bounds[0]), bounds[0])
         info[OBSERVATION + 1, k, i] = min(max(observation[1], -bounds[1]), bounds[1])
         info[OBSERVATION + 2, k, i] = min(max(observation[2], -bounds[2]), bounds[2])

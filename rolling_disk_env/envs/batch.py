@@ -44,7 +44,7 @@ except ImportError:  # Windows
 
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import ROLLING_INDICES
-from rolling_disk_env.envs.config import EnvConfig
+from rolling_disk_env.envs.config import DRAWN, EnvConfig
 from rolling_disk_env.jit import first_class
 from rolling_disk_env.tasks.base import Task
 
@@ -427,14 +427,16 @@ class DiskBatch:
         """How a batch of several shares steps them (None: one share, on the calling thread)."""
         if num_envs >= HEAP_FROM:
             keep_freed_memory()
+        self.drawn_rows = [(name, engine.MASS + DRAWN.index(name)) for name in config.drawn_names]
+        """The info keys of the disk's constants drawn per episode (``params_ranges``) and their lanes rows."""
         self.terms = len(task.reward_weights)
         self.observation_size = len(task.observation_names)
         # Per disk.
         self.lanes = np.zeros((engine.LANES, width))
-        self.lanes[engine.MASS : engine.RADIUS + 1] = np.array(config.params.constants)[:, None]
+        self.lanes[engine.MASS : engine.MU + 1] = config.disk_ranges[:, :1]  # the padding's too
         self.lanes[engine.STEP_SIZE] = config.dt  # the padding's too: a dopri5 step of 0 s would never end
         self.lanes[[engine.ANGLES + 1, engine.ANGLES + 3]] = 1.0  # kernels.angles of the zero state: the padding's
-        self.goals = np.zeros((len(task.goal_names), width))
+        self.goals = np.zeros((task.goal_size, width))
         self.steps = np.zeros(width, dtype=np.int64)
         self.uniforms = np.zeros((num_envs, config.draws))
         self.no_state = np.full((num_envs, GIVEN_SIZE), np.nan)

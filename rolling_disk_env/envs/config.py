@@ -29,6 +29,9 @@ from rolling_disk_env.tasks import TASKS, Task
 ACTUATORS = ("spin", "steer")
 """Torque inputs, in the order of the dynamics' ``(tau_spin, tau_steer)``."""
 RESET_OPTIONS = frozenset({"state"})
+DRAWN = ("mass", "gravity", "radius", "friction_coefficient")
+"""The disk's constants that ``params_ranges`` may draw per episode, in the order of the lanes rows
+``engine.MASS`` to ``engine.MU`` and of the draws."""
 PAINLEVE_BOUND = math.sqrt(5) / 2
 """The sliding model's normal force stays finite for friction coefficients below sqrt(5)/2 (Painleve's paradox
 above: see ``rolling_disk_env/_generated/sliding.py``)."""
@@ -57,7 +60,10 @@ class Termination(enum.IntEnum):
     SUBSTEP_LIMIT = engine.SUBSTEP_LIMIT
     """``"dopri5"`` took :data:`rolling_disk_env.engine.MAX_ADAPTIVE_SUBSTEPS` steps in one control period."""
     REACHED = engine.REACHED
-    """The task's goal was reached (``goto``)."""
+    """The task's goal was reached (``goto``, ``ice``: the target; ``waypoints``: the last waypoint; ``eight``: a
+    whole figure eight; ``recovery``: upright rolling held)."""
+    OFF_COURSE = engine.OFF_COURSE
+    """The disk strayed past the task's tracking bound (``eight``: too far from the path)."""
 
 
 def task_option_names(task_class: type[Task]) -> list[str]:
@@ -99,7 +105,7 @@ class EnvConfig:
         rtol: float = 1e-6,
         atol: float = 1e-8,
         friction_coefficient: float | None = None,
-        contact: str = "rolling",
+        contact: str | None = None,
         max_spin_torque: float = 5.0,
         max_steer_torque: float = 10.0,
         params: DiskParams | None = None,
@@ -129,6 +135,12 @@ class EnvConfig:
             task = TASKS[task](**(task_options or {}))
         else:
             raise ValueError(f"unknown task {task!r}; tasks: {sorted(TASKS)}")
+        if contact is None:
+            contact = task.contact or "rolling"
+        elif task.contact is not None and contact != task.contact:
+            raise ValueError(f"task {task.name!r} runs under contact={task.contact!r}, got contact={contact!r}")
+        if friction_coefficient is None and task.contact is not None:
+            friction_coefficient = task.friction_coefficient
         if isinstance(actuators, str):
             raise ValueError(f"actuators must be a tuple of names from {ACTUATORS}, got the string {actuators!r}")
         actuators = tuple(actuators)
@@ -180,10 +192,21 @@ class EnvConfig:
         if not isinstance(params_ranges, (dict, type(None))):
             raise ValueError(f"params_ranges must be a dict of (low, high) pairs, got {params_ranges!r}")
         for key, bounds in (params_ranges or {}).items():
-            if key not in names:
-                raise ValueError(f"unknown key {key!r} in params_ranges; keys: {names}")
+            if key not in (*names, "friction_coefficient"):
+                raise ValueError(f"unknown key {key!r} in params_ranges; keys: {[*names, 'friction_coefficient']}")
             low, high = number_pair(bounds, f"params_ranges[{key!r}]")
-            if not (math.isfinite(high) and 0 < low <= high):
+            if key == "friction_coefficient":
+                if contact == "rolling":
+                    raise ValueError(
+                        "params_ranges['friction_coefficient'] draws the friction coefficient of the 'sliding' and "
+                        "'coulomb' contacts, not of contact='rolling' (whose friction_coefficient is one number)"
+                    )
+                if not (0 <= low <= high < PAINLEVE_BOUND):
+                    raise ValueError(
+                        f"params_ranges['friction_coefficient'] must satisfy 0 <= low <= high < sqrt(5)/2 = "
+                        f"{PAINLEVE_BOUND:.4f}, got {bounds!r}"
+                    )
+            elif not (math.isfinite(high) and 0 < low <= high):
                 raise ValueError(f"params_ranges[{key!r}] must satisfy 0 < low <= high, got {bounds!r}")
             checked_ranges[key] = (low, high)
         # The task's goal must exist for every disk drawn: check the corners of the disks' ranges.
@@ -222,13 +245,25 @@ class EnvConfig:
         return np.array([[row, self.max_torque[row]] for row in rows], dtype=np.float64).reshape(-1, 2)
 
     @property
+    def friction(self) -> float:
+        """The contact's friction coefficient as the engine reads it: ``friction_coefficient``, inf for None."""
+        return math.inf if self.friction_coefficient is None else self.friction_coefficient
+
+    @property
     def disk_ranges(self) -> np.ndarray:
-        """``(m, g, r)`` rows of ``(low, high, drawn)``: drawn ones from ``params_ranges``, the others fixed."""
+        """``(m, g, r, mu)`` rows of ``(low, high, drawn)`` (:data:`DRAWN`'s order): drawn ones from
+        ``params_ranges``, the others fixed."""
         rows = []
-        for name, value in zip(("mass", "gravity", "radius"), self.params.constants):
+        for name, value in zip(DRAWN, (*self.params.constants, self.friction)):
             low, high = self.params_ranges.get(name, (value, value))
             rows.append((low, high, float(name in self.params_ranges)))
         return np.array(rows, dtype=np.float64)
+
+    @property
+    def drawn_names(self) -> tuple[str, ...]:
+        """The disk's constants drawn per episode (keys of ``params_ranges``), in :data:`DRAWN`'s order: the info keys
+        that report them."""
+        return tuple(name for name in DRAWN if name in self.params_ranges)
 
     @property
     def ranges(self) -> np.ndarray:
@@ -248,7 +283,7 @@ class EnvConfig:
             engine.SUBSTEPS: self.substeps,
             engine.RTOL: self.rtol,
             engine.ATOL: self.atol,
-            engine.FRICTION: math.inf if self.friction_coefficient is None else self.friction_coefficient,
+            engine.FRICTION: self.friction,
             engine.CONTACT: float(CONTACTS.index(self.contact)),
             engine.MAX_STEPS: max_episode_steps or 0,
             engine.SUCCESS_BOUND: self.task.success_bound,

@@ -185,7 +185,6 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._renderer = None
         self._track = None
         self.params: DiskParams | None = None
-        self.goal: dict[str, float] = {}
         self._started = False
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -197,7 +196,6 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
         self._started = True
         m, g, r = batch.disks[:, 0].tolist()
         self.params = DiskParams(mass=m, radius=r, gravity=g) if self.config.params_ranges else self.config.params
-        self.goal = dict(zip(self.task.goal_names, batch.goals[:, 0].tolist()))
         self._track = None if self.render_mode is None else deque([tuple(batch.states[:2, 0])], TRACK_LENGTH)
         if self.render_mode == "human":
             self.render()
@@ -247,7 +245,17 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
             "termination": self._out.codes.item(0) if terminated else engine.RUNNING,
         }
         info.update(zip(self._term_keys, values[engine.TERMS :]))
+        for name, row in self._batch.drawn_rows:
+            info[name] = self._batch.lanes.item(row, 0)
         return info, values[engine.REWARD]
+
+    @property
+    def goal(self) -> dict[str, float]:
+        """The episode's goal: its targets (the task's ``goal_names``) and its progress so far (``progress_names``),
+        by name; empty before the first reset."""
+        if not self._started:
+            return {}
+        return dict(zip((*self.task.goal_names, *self.task.progress_names), self._batch.goals[:, 0].tolist()))
 
     def render(self):
         if self.render_mode is None:

@@ -87,10 +87,10 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
             self._rngs = self._batch.rngs
             self._ended = self._batch.ended
             self._all = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
-            self._step_infos, self._refresh = self._device_infos(self._batch.out, self._all)
+            self._step_infos, self._refresh = self._device_infos(self._batch.out, self._batch.disk_tensor, self._all)
             if self.autoreset_mode == AutoresetMode.SAME_STEP:
                 batch = self._batch
-                final_info, refresh = self._device_infos(batch.final, batch.final_mask)
+                final_info, refresh = self._device_infos(batch.final, batch.final_disk, batch.final_mask)
                 self._step_infos.update(
                     final_obs=batch.final.observations,
                     _final_obs=batch.final_mask,
@@ -176,7 +176,9 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         self._seeded = self._seeded or on_device
         self._batch.reset(mask, states, int(seed) if on_device else None)
         self._last = self._batch.out
-        infos, refresh = self._device_infos(self._batch.out, self._all if mask is None else mask.clone())
+        infos, refresh = self._device_infos(
+            self._batch.out, self._batch.disk_tensor, self._all if mask is None else mask.clone()
+        )
         for update in refresh:
             update()
         return self._batch.out.observations.clone(), infos
@@ -225,8 +227,9 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
             update()
         return observations, rewards, terminated, truncated, dict(self._step_infos)
 
-    def _device_infos(self, out: Outputs, mask: torch.Tensor) -> tuple[dict, list]:
-        """The batched info of ``out`` (the GPU batch's) with the mask ``mask``: views of its tensors, made once, and
+    def _device_infos(self, out: Outputs, disks: torch.Tensor, mask: torch.Tensor) -> tuple[dict, list]:
+        """The batched info of ``out`` (the GPU batch's, with the disks' constants ``disks``, (m, g, r, mu) rows) with
+        the mask ``mask``: views of its tensors, made once, and
         the updates that refresh the values that are not views (under the ``"sliding"`` and ``"coulomb"``
         contacts, the 10-state and the sliding flags) after each step."""
         info, first, n, refresh = out.info, self._batch.contact_rows, self.num_envs, []
@@ -242,7 +245,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
                 functools.partial(torch.gt, info[first + 4], 0.0, out=sliding),
             ]
             state, slip = states.T, info[first + 2 : first + 4].T
-        return self._masked_infos(out, state, sliding, slip, mask), refresh
+        return self._masked_infos(out, state, sliding, slip, disks, mask), refresh
 
     @staticmethod
     def _observations(observations: np.ndarray) -> torch.Tensor:

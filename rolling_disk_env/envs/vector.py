@@ -198,11 +198,13 @@ class RollingDiskVectorEnv(VectorEnv):
         else:
             sliding, slip = info[first + 4] > 0.0, info[first + 2 : first + 4].T
         mask = np.ones(self.num_envs, dtype=bool) if present is None else present
-        return self._masked_infos(out, info[self._batch.state_rows].T, sliding, slip, mask)
+        disks = self._batch.lanes[engine.MASS : engine.MU + 1, : self.num_envs].copy()  # before a same-step reset
+        return self._masked_infos(out, info[self._batch.state_rows].T, sliding, slip, disks, mask)
 
-    def _masked_infos(self, out: Outputs, state, sliding, slip, mask) -> dict:
+    def _masked_infos(self, out: Outputs, state, sliding, slip, disks, mask) -> dict:
         """The info keys of ``out`` (its rows as they are, but the ``state``, ``sliding`` flags and ``slip``
-        velocities given), each with its mask ``"_key"``: ``mask``."""
+        velocities given, and the disks' constants ``disks``, (m, g, r, mu) rows, of which those drawn per episode
+        are reported), each with its mask ``"_key"``: ``mask``."""
         info = out.info
         infos = {
             "state": state,
@@ -216,6 +218,8 @@ class RollingDiskVectorEnv(VectorEnv):
             "termination": out.codes,  # RUNNING (0) where not terminated
         }
         infos.update(zip(self._term_keys, info[engine.TERMS :]))
+        for name, row in self._batch.drawn_rows:
+            infos[name] = disks[row - engine.MASS]
         masked = {}
         for key, value in infos.items():
             masked[key], masked["_" + key] = value, mask

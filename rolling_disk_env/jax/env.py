@@ -15,7 +15,10 @@ contact needs more); the fixed-step integrators ``"euler"``, ``"symplectic_euler
 steps are accepted or rejected in a loop of data-dependent length; a ``lax.while_loop`` would express it, but not
 differentiably by reverse mode, and its numba kernels, loops with early exits, have no JAX reading), the
 ``"sliding"`` and ``"coulomb"`` contacts (event location by bisection and mode switching, loops of data-dependent
-length in the engine), and ``params_ranges`` (vmap over :class:`EnvParams` of different disks instead).
+length in the engine), and with them the task ``ice``, which runs under Coulomb's contact. ``params_ranges`` (the
+mass, gravity and radius) is drawn at each reset from the env's own PRNG (:attr:`EnvParams.disk_ranges`; the
+episode's disk is in :attr:`EnvState.disk` and in the step's ``info``); a task's progress
+(:attr:`rolling_disk_env.tasks.Task.progress_names`) is part of :attr:`EnvState.goal`, which the step updates.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from gymnax.environments import environment, spaces
 import rolling_disk_env as rd
 from rolling_disk_env import engine
 from rolling_disk_env._generated import kernels
-from rolling_disk_env.envs.config import EnvConfig
+from rolling_disk_env.envs.config import DRAWN, EnvConfig
 from rolling_disk_env.jax.reading import traced
 from rolling_disk_env.tasks.base import REACH, TRACK
 
@@ -45,7 +48,9 @@ class EnvState(environment.EnvState):
 
     Attributes:
         x: the state ``(c1, c2, phi, theta, psi, dphi, dtheta, dpsi)``, m, rad, m/s, rad/s.
-        goal: the episode's targets (the task's ``goal_names``).
+        goal: the episode's targets (the task's ``goal_names``), then its progress (``progress_names``), which the
+            step updates.
+        disk: the episode's disk ``(m, g, r)``, kg, m/s^2, m (drawn at the reset from :attr:`EnvParams.disk_ranges`).
         success: whether the episode counts as a success if it ended now (``info["is_success"]``).
         tracking_sum: the success rule TRACK's exponentially weighted sum of the task's ``tracking_error`` over the
             episode's steps (its unit: m for ``circle``), zero at the reset (:func:`rolling_disk_env.engine.track`;
@@ -57,6 +62,7 @@ class EnvState(environment.EnvState):
 
     x: jax.Array
     goal: jax.Array
+    disk: jax.Array
     success: jax.Array
     tracking_sum: jax.Array
     tracking_weight: jax.Array
@@ -73,6 +79,8 @@ class EnvParams(environment.EnvParams):
         mass: m, kg.
         gravity: g, m/s^2.
         radius: r, m.
+        disk_ranges: None (the disk above in every episode), or (3, 2): the uniform ranges ``(low, high)`` of m, g
+            and r, drawn at each reset (``params_ranges``; a row with low = high keeps that constant).
         dt: the control period, s.
         max_torques: (spin, steer) torque of action +1, N m.
         friction_coefficient: the contact's mu (inf: ideal rolling); a step whose contact needs more ends with
@@ -95,6 +103,7 @@ class EnvParams(environment.EnvParams):
     mass: float = 5.0
     gravity: float = 9.81
     radius: float = 1.0
+    disk_ranges: Any = None
     dt: float = 0.02
     max_torques: Any = None
     friction_coefficient: float = float("inf")
@@ -134,13 +143,17 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
             raise ValueError(
                 f"integrator must be one of {list(FIXED_STEP_METHODS)} in JAX (fixed steps), got {config.integrator!r}"
             )
+        if config.task.contact not in (None, "rolling"):
+            raise ValueError(
+                f"task {task!r} runs under contact={config.task.contact!r} (Coulomb's contact: sliding and rolling by "
+                "turns), which JAX does not have; run it on the numba env (CPU, or device='cuda')"
+            )
         if config.contact != "rolling":
             raise ValueError(f"contact must be 'rolling' in JAX, got {config.contact!r}")
-        if config.params_ranges:
-            raise ValueError("params_ranges is not supported in JAX: vmap over EnvParams of different disks instead")
         module = inspect.getmodule(type(config.task))
         self.task = config.task
         self._start = traced(module.start)
+        self._advance = traced(module.advance) if self.task.progress_names else None
         self._observe = traced(module.observe)
         self._reward_terms = traced(module.reward_terms)
         self._termination = traced(module.termination)
@@ -170,10 +183,12 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
         config = self.config
         m, g, r = config.params.constants
         engine_config = config.engine_config(None)
+        ranges = config.disk_ranges[:3, :2]
         return EnvParams(
             mass=m,
             gravity=g,
             radius=r,
+            disk_ranges=jnp.asarray(ranges) if config.params_ranges else None,
             dt=config.dt,
             max_torques=jnp.asarray(config.max_torque),
             friction_coefficient=float(engine_config[engine.FRICTION]),
@@ -183,6 +198,7 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
             observation_high=jnp.asarray(self.task.observation_high),
             success_bound=float(engine_config[engine.SUCCESS_BOUND]),
             success_decay=float(engine_config[engine.SUCCESS_DECAY]),
+            max_steps_in_episode=rd.TASK_MAX_STEPS[self.task.name],
             substeps=config.substeps,
             integrator=config.integrator,
             actuators=tuple(int(row) for row in config.actuators_array[:, 0]),
@@ -197,26 +213,49 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
         return spaces.Box(-high, high, high.shape, jnp.float32)
 
     def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
-        """A new episode: the goal and the initial state from uniforms in the task's ranges (from ``key``)."""
+        """A new episode: the disk drawn from :attr:`EnvParams.disk_ranges` (from ``fold_in(key, 1)``), then the
+        goal and the initial state from uniforms in the task's ranges (from ``key``)."""
         dtype = jnp.asarray(params.ranges).dtype
         uniforms = jax.random.uniform(key, (params.ranges.shape[0],), dtype)
         drawn = params.ranges[:, 0] + (params.ranges[:, 1] - params.ranges[:, 0]) * uniforms
-        goal, x = self._start(drawn, (params.mass, params.gravity, params.radius), tuple(params.settings))
-        return self.start_from(jnp.stack(x), jnp.stack(goal), params)
+        disk = self.draw_disk(key, params)
+        goal, x = self._start(drawn, tuple(disk), tuple(params.settings))
+        return self.start_from(jnp.stack(x), jnp.stack(goal), params, disk)
 
-    def start_from(self, x: jax.Array, goal: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
-        """An episode from the state ``x`` and the goal ``goal`` (as ``reset(options={"state": x})`` with the goal
-        drawn): its first observation and state."""
+    def draw_disk(self, key: jax.Array, params: EnvParams) -> jax.Array:
+        """The episode's disk ``(m, g, r)``: :attr:`EnvParams.mass` and the others, or where
+        :attr:`EnvParams.disk_ranges` is set, uniform in its ranges (from ``fold_in(key, 1)``)."""
+        fixed = jnp.stack(jnp.broadcast_arrays(params.mass, params.gravity, params.radius)).astype(
+            jnp.result_type(float)
+        )
+        if params.disk_ranges is None:
+            return fixed
+        low, high = params.disk_ranges[:, 0], params.disk_ranges[:, 1]
+        return low + (high - low) * jax.random.uniform(jax.random.fold_in(key, 1), (3,), fixed.dtype)
+
+    def start_from(
+        self, x: jax.Array, goal: jax.Array, params: EnvParams, disk: jax.Array | None = None
+    ) -> tuple[jax.Array, EnvState]:
+        """An episode from the state ``x``, the goal ``goal`` (targets and progress) and the disk ``disk`` ((m, g, r);
+        None: :attr:`EnvParams.mass` and the others), as ``reset(options={"state": x})`` with the goal drawn: its
+        first observation and state."""
         dtype = jnp.result_type(float)
         x, goal = jnp.asarray(x, dtype), jnp.asarray(goal, dtype)
+        if disk is None:
+            disk = jnp.stack(jnp.broadcast_arrays(params.mass, params.gravity, params.radius))
+        disk = jnp.asarray(disk, dtype)
         success = jnp.asarray(self.task.success != REACH)
         zero = jnp.zeros((), dtype)
-        state = EnvState(x=x, goal=goal, success=success, tracking_sum=zero, tracking_weight=zero, time=0)
-        return self._observation(tuple(x), tuple(goal), params), state
+        state = EnvState(x=x, goal=goal, disk=disk, success=success, tracking_sum=zero, tracking_weight=zero, time=0)
+        return self._observation(tuple(x), tuple(goal), tuple(disk), params), state
 
-    def _observation(self, x: tuple, goal: tuple, params: EnvParams) -> jax.Array:
-        """The task's observation clipped to its bounds, float32."""
-        observation = jnp.stack(self._observe(x, self._angles(x), goal, tuple(params.settings)))
+    def _observation(self, x: tuple, goal: tuple, disk: tuple, params: EnvParams, velocity=None) -> jax.Array:
+        """The task's observation clipped to its bounds, float32; ``velocity`` the centre's (None: from the rolling
+        constraint)."""
+        trig = self._angles(x)
+        if velocity is None:
+            velocity = self._centre_velocity(x, trig, *disk)
+        observation = jnp.stack(self._observe(x, trig, velocity, goal, tuple(params.settings)))
         high = jnp.asarray(params.observation_high, observation.dtype)
         return jnp.minimum(jnp.maximum(observation, -high), high).astype(jnp.float32)
 
@@ -225,7 +264,7 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
     ) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, dict]:
         """One control period (the order of the engine's fused step)."""
         x, goal, settings = tuple(state.x), tuple(state.goal), tuple(params.settings)
-        m, g, r = params.mass, params.gravity, params.radius
+        m, g, r = state.disk[0], state.disk[1], state.disk[2]
         action = jnp.clip(jnp.asarray(action, state.x.dtype), -1.0, 1.0)
         torques = [0.0, 0.0]
         for j, row in enumerate(params.actuators):
@@ -241,9 +280,11 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
         contact = self._contact(x, tau_spin, tau_steer, m, g, r)
         running = code == engine.RUNNING
         code = jnp.where(running, self._contact_status(contact[3], contact[4], params.friction_coefficient), code)
-        code = jnp.where(code == engine.RUNNING, self._termination(x, goal, settings), code)
         trig = self._angles(x)
         velocity = self._centre_velocity(x, trig, m, g, r)
+        if self._advance is not None:
+            goal = goal[: len(self.task.goal_names)] + tuple(self._advance(x, trig, velocity, goal, settings))
+        code = jnp.where(code == engine.RUNNING, self._termination(x, goal, settings), code)
         terms = self._reward_terms(x, trig, velocity, code, effort, goal, settings)
         reward = params.reward_weights[0] * terms[0]
         for weight, term in zip(params.reward_weights[1:], terms[1:]):
@@ -258,13 +299,14 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
         terminated = code != engine.RUNNING
         state = EnvState(
             x=jnp.stack(x),
-            goal=state.goal,
+            goal=jnp.stack(goal).astype(state.goal.dtype),
+            disk=state.disk,
             success=success,
             tracking_sum=tracking_sum,
             tracking_weight=tracking_weight,
             time=state.time + 1,
         )
-        observation = self._observation(x, goal, params)
+        observation = self._observation(x, goal, (m, g, r), params, velocity)
         info = {
             "state": state.x,
             "energy": contact[0],
@@ -275,6 +317,7 @@ class RollingDiskJax(environment.Environment[EnvState, EnvParams]):
             "slip_velocity": jnp.zeros(2, state.x.dtype),
             "is_success": success,
             "termination": code,
+            **{name: state.disk[DRAWN.index(name)] for name in self.config.drawn_names},
             **dict(zip(self.term_keys, (jnp.asarray(term, state.x.dtype) for term in terms))),
         }
         observation, state = self._apply_transition_gradient_policy(observation, state)

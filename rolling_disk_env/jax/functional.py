@@ -29,6 +29,7 @@ from gymnasium.experimental.functional import FuncEnv
 from gymnasium.utils import EzPickle
 
 from rolling_disk_env import engine
+from rolling_disk_env.envs.config import DRAWN
 from rolling_disk_env.jax.env import EnvParams, EnvState, RollingDiskJax
 
 REPORTED = ("energy", "contact_force", "normal_force", "required_friction")
@@ -44,7 +45,7 @@ class RollingDiskFunctional(FuncEnv):
 
     Attributes:
         gymnax: the :class:`RollingDiskJax` whose step this is.
-        layout: where each part of a disk's state array lies, name -> slice: ``x``, ``goal``, ``success``,
+        layout: where each part of a disk's state array lies, name -> slice: ``x``, ``goal``, ``disk``, ``success``,
             ``tracking_sum``, ``tracking_weight``, ``time`` (the gymnax state), then the latest step's ``reward`` and
             ``termination`` code and the info values of :data:`REPORTED` and the reward ``terms``.
         size: the length of a disk's state array.
@@ -59,7 +60,8 @@ class RollingDiskFunctional(FuncEnv):
         self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (self.gymnax.num_actions,), np.float32)
         sizes = {
             "x": 8,
-            "goal": len(self.gymnax.task.goal_names),
+            "goal": self.gymnax.task.goal_size,
+            "disk": 3,
             **dict.fromkeys(("success", "tracking_sum", "tracking_weight", "time", "reward", "termination"), 1),
             "energy": 1,
             "contact_force": 2,
@@ -82,6 +84,7 @@ class RollingDiskFunctional(FuncEnv):
         parts = {
             "x": state.x,
             "goal": state.goal,
+            "disk": state.disk,
             "success": state.success,
             "tracking_sum": state.tracking_sum,
             "tracking_weight": state.tracking_weight,
@@ -99,15 +102,16 @@ class RollingDiskFunctional(FuncEnv):
 
     def _part(self, state: jax.Array, name: str) -> jax.Array:
         """A part of state arrays (one disk's or a batch's: the last axis): a value, or a vector for ``x``, ``goal``,
-        ``contact_force`` and ``terms``."""
+        ``disk``, ``contact_force`` and ``terms``."""
         part = state[..., self.layout[name]]
-        return part if name in ("x", "goal", "contact_force", "terms") else part[..., 0]
+        return part if name in ("x", "goal", "disk", "contact_force", "terms") else part[..., 0]
 
     def _unpack(self, state: jax.Array) -> EnvState:
         """The gymnax state of a disk's state array."""
         return EnvState(
             x=self._part(state, "x"),
             goal=self._part(state, "goal"),
+            disk=self._part(state, "disk"),
             success=self._part(state, "success") != 0,
             tracking_sum=self._part(state, "tracking_sum"),
             tracking_weight=self._part(state, "tracking_weight"),
@@ -126,8 +130,8 @@ class RollingDiskFunctional(FuncEnv):
 
     def observation(self, state: jax.Array, rng: jax.Array, params: EnvParams | None = None) -> jax.Array:
         """The task's observation of the disk, float32, clipped to its bounds."""
-        x, goal = self._part(state, "x"), self._part(state, "goal")
-        return self.gymnax._observation(tuple(x), tuple(goal), params or self.default_params)
+        x, goal, disk = self._part(state, "x"), self._part(state, "goal"), self._part(state, "disk")
+        return self.gymnax._observation(tuple(x), tuple(goal), tuple(disk), params or self.default_params)
 
     def reward(self, state, action, next_state: jax.Array, rng, params=None) -> jax.Array:
         """The reward of the step that led to ``next_state``."""
@@ -156,6 +160,9 @@ class RollingDiskFunctional(FuncEnv):
         }
         for j, key in enumerate(self.gymnax.term_keys):
             info[key] = terms[..., j]
+        disk = self._part(next_state, "disk")
+        for name in self.gymnax.config.drawn_names:
+            info[name] = disk[..., DRAWN.index(name)]
         return info
 
 

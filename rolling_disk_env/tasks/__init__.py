@@ -20,9 +20,25 @@ The recipe for a new task ``"name"``:
 
 from rolling_disk_env.tasks.base import Task
 from rolling_disk_env.tasks.circle import CircleTask
+from rolling_disk_env.tasks.eight import EightTask
 from rolling_disk_env.tasks.goto import GotoTask
+from rolling_disk_env.tasks.ice import IceTask
+from rolling_disk_env.tasks.recovery import RecoveryTask
 from rolling_disk_env.tasks.upright import UprightTask
+from rolling_disk_env.tasks.waypoints import WaypointsTask
 
-TASKS: dict[str, type[Task]] = {task.name: task for task in (UprightTask, CircleTask, GotoTask)}
+TASKS: dict[str, type[Task]] = {
+    task.name: task for task in (UprightTask, CircleTask, GotoTask, WaypointsTask, EightTask, RecoveryTask, IceTask)
+}
 
-__all__ = ["TASKS", "CircleTask", "GotoTask", "Task", "UprightTask"]
+__all__ = [
+    "TASKS",
+    "CircleTask",
+    "EightTask",
+    "GotoTask",
+    "IceTask",
+    "RecoveryTask",
+    "Task",
+    "UprightTask",
+    "WaypointsTask",
+]

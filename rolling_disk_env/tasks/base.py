@@ -3,21 +3,30 @@
 A task is one module (see the recipe in :mod:`rolling_disk_env.tasks`): a :class:`Task` subclass, which checks the
 task's options and describes its spaces, reward terms and ranges, and module-level kernels, pure functions of floats
 and tuples of floats that numba compiles into the engine's fused step (``x`` is the state, 8 floats; ``goal`` the
-episode's targets, :attr:`Task.goal_names`; ``settings`` the task's options, :attr:`Task.setting_names`):
+episode's task variables, :attr:`Task.goal_names` then :attr:`Task.progress_names`; ``settings`` the task's options,
+:attr:`Task.setting_names`):
 
-* ``start(drawn, disk, settings) -> (goal, x)``: the episode's goal and initial state from the values ``drawn``
-  uniformly in the task's goal ranges, then its initial-state ranges (an array, in their keys' order), for the disk
-  ``(m, g, r)``;
-* ``observe(x, trig, goal, settings)``: the observation (unclipped: the engine clips it to the bounds); ``trig`` is
-  ``(sin theta, cos theta, sin psi, cos psi)`` of ``x`` (positions :data:`SIN_THETA` to :data:`COS_PSI`), which the
-  engine keeps from the step (``kernels.angles``);
+* ``start(drawn, disk, settings) -> (goal, x)``: the episode's goal (its targets, then the initial values of its
+  progress) and initial state from the values ``drawn`` uniformly in the task's goal ranges, then its initial-state
+  ranges (an array, in their keys' order), for the disk ``(m, g, r)``;
+* ``advance(x, trig, velocity, goal, settings) -> progress`` (only for a task with :attr:`Task.progress_names`): the
+  task's state after a step, from the disk at the step's end and the goal before it: which waypoint comes next, how
+  far along a path the disk is, how long it has held a pose. The step calls it once per disk and control period,
+  after the integration and the contact checks, and writes it into the goal before the task's termination, reward
+  terms and observation read it; the reset writes the initial values ``start`` gives. Its size is fixed (a row of
+  the batch's ``goals`` per name), the same on every target (the vector env, the single env, the GPU and JAX);
+* ``observe(x, trig, velocity, goal, settings)``: the observation (unclipped: the engine clips it to the bounds);
+  ``trig`` is ``(sin theta, cos theta, sin psi, cos psi)`` of ``x`` (positions :data:`SIN_THETA` to :data:`COS_PSI`),
+  which the engine keeps from the step (``kernels.angles``), ``velocity`` the centre's horizontal velocity
+  ``(dc1, dc2)`` (m/s: from the rolling constraint, or the sliding disk's own under the ``"sliding"`` and
+  ``"coulomb"`` contacts);
 * ``reward_terms(x, trig, velocity, code, effort, goal, settings)``: each named term, in [-1, 1], in the order of
-  :attr:`Task.default_reward_weights`; ``velocity`` is the centre's horizontal velocity ``(dc1, dc2)`` (m/s: from the
-  rolling constraint, or the sliding disk's own under the ``"sliding"`` and ``"coulomb"`` contacts), ``code`` the
-  step's termination code (:class:`rolling_disk_env.Termination`: RUNNING, the task's own, or the engine's,
-  such as LIFTED_OFF), ``effort`` the mean squared normalized action, in [0, 1]; the engine weights and sums them;
+  :attr:`Task.default_reward_weights`; ``code`` is the step's termination code
+  (:class:`rolling_disk_env.Termination`: RUNNING, the task's own, or the engine's, such as LIFTED_OFF), ``effort``
+  the mean squared normalized action, in [0, 1]; the engine weights and sums them;
 * ``termination(x, goal, settings)``: the engine's code :data:`~rolling_disk_env.engine.RUNNING`,
-  :data:`~rolling_disk_env.engine.FALLEN` or :data:`~rolling_disk_env.engine.REACHED`;
+  :data:`~rolling_disk_env.engine.FALLEN`, :data:`~rolling_disk_env.engine.REACHED` or
+  :data:`~rolling_disk_env.engine.OFF_COURSE`;
 * ``tracking_error(x, goal, settings)``: the error whose exponentially weighted mean decides success (only for the
   success rule :data:`TRACK`).
 
@@ -28,7 +37,9 @@ Each module names the positions it reads in these tuples with constants (numba f
 others do for the state. Use IEEE-exact operations (+, -, *, /, sqrt) and
 :func:`rolling_disk_env.trig.sincos` in the kernels the step calls: a call to libm (``math.sin``, ``math.atan2``, ...)
 keeps the step's loop over the disks from vectorizing (``start`` runs in the reset, which is not vectorized, and may
-use libm). ``math.hypot``, for one, differs in the last bit between CPython and numba.
+use libm). ``math.hypot``, for one, differs in the last bit between CPython and numba. A choice among values is a
+conditional expression (``a if c else b``), which the loop computes without a branch and JAX reads as ``where``; an
+index into a tuple is a constant (select among a tuple's items by conditional expressions).
 """
 
 from __future__ import annotations
@@ -61,6 +72,13 @@ RATE_BOUND = 100.0
 """rad/s. Observed rates are clipped to +-RATE_BOUND so that the observation space is bounded."""
 
 
+def circle_points(x: float, y: float, radius: float, count: int = 96) -> np.ndarray:
+    """A closed polyline of ``count`` points around the circle of centre ``(x, y)`` and ``radius`` (m), (count + 1, 2)
+    (its first point repeated)."""
+    angles = np.linspace(0.0, 2 * math.pi, count + 1)
+    return np.column_stack([x + radius * np.cos(angles), y + radius * np.sin(angles)])
+
+
 @inline_kernel
 def penalty(error):
     """The bounded penalty ``-min(error^2, 1)`` of a normalized error (compiled into the tasks' kernels)."""
@@ -78,6 +96,8 @@ class Task(ABC):
         default_reward_weights: the named reward terms, in the order ``reward_terms`` writes them, with their
             default weights (option ``reward_weights``).
         goal_names: the per-episode targets ``start`` writes, in order.
+        progress_names: the per-episode task state that ``start`` sets and ``advance`` updates at every step, after
+            the targets in ``goal`` (none by default).
         setting_names: the instance attributes the kernels read from ``settings``, in order.
         default_initial_ranges: initial-state ranges (option ``initial_ranges``), in the order ``start`` reads them.
         fall_lean: rad. The disk has fallen when |theta| exceeds it.
@@ -85,18 +105,26 @@ class Task(ABC):
         success_bound: the bound of the success rule :data:`TRACK` (or of :data:`REACH`'s distance).
         success_time_constant: s. The time constant of the success rule :data:`TRACK`'s exponentially weighted mean:
             the error of a step t seconds ago weighs ``exp(-t / success_time_constant)`` against the latest's.
+        contact: the contact model the task runs under (the env's ``contact`` defaults to it, and no other is
+            accepted), or None: any, ``"rolling"`` by default.
+        friction_coefficient: the env's ``friction_coefficient`` by default, with :attr:`contact`.
+        mark_label: what the renderer's legend calls the task's marks (:meth:`marks`).
     """
 
     name: ClassVar[str]
     observation_names: ClassVar[tuple[str, ...]]
     default_reward_weights: ClassVar[dict[str, float]]
     goal_names: ClassVar[tuple[str, ...]]
+    progress_names: ClassVar[tuple[str, ...]] = ()
     setting_names: ClassVar[tuple[str, ...]]
     default_initial_ranges: ClassVar[dict[str, tuple[float, float]]]
     fall_lean: float
     success: ClassVar[int] = SURVIVE
     success_bound: float = math.inf
     success_time_constant: float = math.inf
+    contact: ClassVar[str | None] = None
+    friction_coefficient: ClassVar[float | None] = None
+    mark_label: ClassVar[str] = "target"
 
     @classmethod
     def source_hash(cls) -> str:
@@ -150,6 +178,17 @@ class Task(ABC):
 
     def check_disk(self, params) -> None:  # noqa: B027 (a hook: most tasks have a goal for every disk)
         """Raises ``ValueError`` if the task has no goal for a disk of these ``DiskParams`` (nothing to check here)."""
+
+    def marks(self, goal: dict[str, float]) -> list[np.ndarray]:
+        """What the renderer and the episode plots draw on the ground for an episode's ``goal`` (targets and
+        progress, by name): polylines, each an (n, 2) array of points (m; a closed one repeats its first point).
+        None by default."""
+        return []
+
+    @property
+    def goal_size(self) -> int:
+        """Rows of an episode's goal: its targets, then its progress."""
+        return len(self.goal_names) + len(self.progress_names)
 
     @property
     def goal_ranges(self) -> dict[str, tuple[float, float]]:

@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from typing import ClassVar
 
+import numpy as np
+
 from rolling_disk_env import engine
 from rolling_disk_env.dynamics import DiskParams, is_number, number_pair, steady_circle
 from rolling_disk_env.engine import FALLEN, RUNNING
@@ -29,6 +31,7 @@ from rolling_disk_env.tasks.base import (
     THETA,
     TRACK,
     Task,
+    circle_points,
     penalty,
 )
 
@@ -135,6 +138,12 @@ class CircleTask(Task):
         if not (math.isfinite(self.centre_x) and math.isfinite(self.centre_y)):
             raise ValueError(f"centre must be finite (m), got {centre!r}")
 
+    mark_label = "target circle"
+
+    def marks(self, goal: dict[str, float]) -> list[np.ndarray]:
+        """The episode's circle."""
+        return [circle_points(goal["cx"], goal["cy"], goal["radius"])]
+
     def check_disk(self, params: DiskParams) -> None:
         """Raises ``ValueError`` if the range's tightest circle has no steady motion for the disk ``params``."""
         steady_circle(self.radius_range[0], self.target_speed, params)
@@ -184,7 +193,7 @@ def radial_error(x, goal):
 
 
 @inline_kernel
-def observe(x, trig, goal, settings):
+def observe(x, trig, velocity, goal, settings):
     dx, dy = x[C1] - goal[CIRCLE_X], x[C2] - goal[CIRCLE_Y]
     distance = math.sqrt(dx * dx + dy * dy)
     sin_psi, cos_psi = trig[SIN_PSI], trig[COS_PSI]

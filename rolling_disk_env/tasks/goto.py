@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 from typing import ClassVar
 
+import numpy as np
+
 from rolling_disk_env.dynamics import is_number, number_pair
 from rolling_disk_env.engine import FALLEN, LIFTED_OFF, REACHED, RUNNING
 from rolling_disk_env.jit import inline_kernel, kernel
@@ -32,6 +34,7 @@ from rolling_disk_env.tasks.base import (
     SIN_PSI,
     THETA,
     Task,
+    circle_points,
     penalty,
 )
 
@@ -157,6 +160,10 @@ class GotoTask(Task):
         self.reach_radius = float(reach_radius)
         self.success_bound = self.reach_radius
 
+    def marks(self, goal: dict[str, float]) -> list[np.ndarray]:
+        """The target, as the circle of ``reach_radius`` about it."""
+        return [circle_points(goal["x"], goal["y"], self.reach_radius, 24)]
+
     def observation_bound(self, name: str) -> float:
         bounds = {
             "distance": 2.5 * self.distance_range[1],
@@ -203,7 +210,7 @@ def bearing(trig, u1, u2):
 
 
 @inline_kernel
-def observe(x, trig, goal, settings):
+def observe(x, trig, velocity, goal, settings):
     distance, u1, u2 = to_target(x, goal)
     sin_bearing, cos_bearing = bearing(trig, u1, u2)
     return (distance, sin_bearing, cos_bearing, x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])

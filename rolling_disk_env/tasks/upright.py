@@ -90,7 +90,7 @@ def start(drawn, disk, settings):
 
 
 @inline_kernel
-def observe(x, trig, goal, settings):
+def observe(x, trig, velocity, goal, settings):
     return (x[THETA], x[DTHETA], x[DPHI] - goal[TARGET_DPHI], x[DPSI])
 
 
