@@ -1,7 +1,8 @@
 """Train a Stable-Baselines3 agent on a task of rolling-disk-env (the project's main job).
 
-Hyperparameters come from agents/hyperparams/<algo>.yml, rl-baselines3-zoo's format, in the block of the task's
-env id (RollingDiskUpright-v0, RollingDiskCircle-v0). The run directory (--out) receives model.zip (the final model,
+Hyperparameters come from agents/hyperparams/<algo>.yml, rl-baselines3-zoo's format, in the block of the task's own
+id (RollingDisk<Task>-v0: RollingDiskGoto-v0 for --task goto). The run directory (--out; by default
+runs/<task>_<algo>_<seed>, numbered _2, _3, ... where a previous run is there) receives model.zip (the final model,
 which the results table evaluates), best_model.zip (the best periodic evaluation, with best_vecnormalize.pkl),
 vecnormalize.pkl, config.yml (the hyperparameters used), command.txt, TensorBoard logs in tb/ (tensorboard --logdir
 runs/) and results.md: mean +- std return and success rate over seeded evaluation episodes of the trained agent, the
@@ -9,7 +10,7 @@ passive disk and the task's classical baseline. Ctrl-C stops training and still 
 
 With --device (cuda or cpu), rsl-rl-lib's PPO trains instead, on the torch vector env with the disks and the policy
 on that device (agents/hyperparams/rsl_rl_ppo.yml, the [gpu] extra): the run directory holds model.pt (rsl_rl's
-checkpoint) and policy.pt (TorchScript) instead of the .zip files, and the same table.
+checkpoint) and policy.pt2 (torch.export's program) instead of the .zip files, and the same table.
 
 With --jax, rejax's PPO trains on the task's gymnax env (rolling_disk_env.jax), the env, the rollouts and the updates
 compiled into one XLA program (agents/hyperparams/rejax_ppo.yml, the [jax] extra): the run directory holds
@@ -20,10 +21,10 @@ examples:
   python train.py                                   # PPO on task upright: the README's main job
   python train.py --task circle                     # PPO on task circle
   python train.py --task circle --algo sac --timesteps 200000 --seed 3 --out runs/circle_sac
-  python train.py --verbose 1                       # SB3's training logs and every evaluation
+  python train.py --verbose 1                       # SB3's training logs too
   python train.py --device cuda                     # rsl_rl's PPO on the GPU, 4096 disks (the [gpu] extra)
   python train.py --jax                             # rejax's PPO on the JAX env, one XLA program (the [jax] extra)
-  python -m agents.evaluate --model runs/upright_ppo_0/best_model.zip --render human   # watch the result
+  python -m agents.evaluate --model runs/upright_ppo_0/model.zip --render human   # watch the trained agent
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from pathlib import Path
 
 # Only the standard library is imported before the arguments are parsed: --help and argument errors answer at
 # once, and torch, SB3 and the package load (seconds) only for a run.
-TASKS = ("upright", "circle", "goto", "waypoints", "eight", "recovery", "ice")
+TASKS = ("upright", "circle", "goto", "waypoints", "eight", "recovery", "recovery_sparse", "ice")
 """The tasks with hyperparameters, keys of ``rolling_disk_env.TASK_IDS`` (tests/test_train_cli.py checks both)."""
 ALGORITHMS = ("ppo", "sac", "td3")
 """The algorithms, the keys of ``agents.evaluate.ALGORITHMS`` (checked likewise)."""
@@ -72,10 +73,12 @@ def existing_file(text: str) -> Path:
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """Keeps the docstring's layout and shows each option's default, when it has one."""
+    """Keeps the docstring's layout and shows each option's default once: its value where it has one and its help does
+    not say it already, never for a flag."""
 
     def _get_help_string(self, action: argparse.Action) -> str:
-        if action.default not in (None, argparse.SUPPRESS) and "%(default)" not in action.help:
+        flag = isinstance(action, argparse._StoreTrueAction)
+        if action.default not in (None, argparse.SUPPRESS) and "default" not in action.help and not flag:
             return f"{action.help} (default: %(default)s)"
         return action.help
 
@@ -94,7 +97,12 @@ def parser() -> argparse.ArgumentParser:
         "--n-envs", type=positive_int, metavar="N", help="training environments (default: the config's n_envs)"
     )
     parser.add_argument("--seed", type=seed, default=0, help="seed of the model and the training environments")
-    parser.add_argument("--out", type=Path, metavar="DIR", help="run directory (default: runs/<task>_<algo>_<seed>)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="run directory, new or empty (default: runs/<task>_<algo>_<seed>, numbered where a previous run is there)",
+    )
     parser.add_argument(
         "--config",
         type=existing_file,
@@ -121,6 +129,25 @@ def parser() -> argparse.ArgumentParser:
     return parser
 
 
+RUN_FILES = ("results.md", "model.zip", "model.pt", "policy.pt2", "policy.msgpack")
+"""What a finished or interrupted run leaves in its directory, by trainer."""
+
+
+def holds_a_run(directory: Path) -> bool:
+    """Whether ``directory`` holds a previous run's results or model."""
+    return any((directory / name).exists() for name in RUN_FILES)
+
+
+def new_run_directory(first: Path) -> Path:
+    """``first``, or where a previous run is there, the first of ``first_2``, ``first_3``, ... that holds none (as
+    rl-baselines3-zoo numbers its runs)."""
+    directory, number = first, 1
+    while holds_a_run(directory):
+        number += 1
+        directory = first.with_name(f"{first.name}_{number}")
+    return directory
+
+
 def main(argv: list[str] | None = None) -> list:
     """Parses ``argv`` (default: the command line), trains, prints the results table; returns the results
     (``agents.evaluate.Result``: trained agent, passive disk, baseline)."""
@@ -134,11 +161,13 @@ def main(argv: list[str] | None = None) -> list:
         arguments.error(f"--device trains PPO (rsl_rl's), not {args.algo}")
     if args.jax and (args.algo != "ppo" or args.device is not None):
         arguments.error("--jax trains PPO (rejax's) on the CPU JAX finds, without --device or another --algo")
+    if args.out is not None and holds_a_run(args.out):
+        arguments.error(f"--out {args.out} holds a previous run (its results or a model): choose another --out")
+    name = f"rsl_rl_{args.device}" if args.device else "rejax_ppo" if args.jax else args.algo
+    out = args.out or new_run_directory(Path("runs") / f"{args.task}_{name}_{args.seed}")
     import rolling_disk_env as rd
     from agents.training import ConfigError, load_hyperparams, train
 
-    name = f"rsl_rl_{args.device}" if args.device else "rejax_ppo" if args.jax else args.algo
-    out = args.out or Path("runs") / f"{args.task}_{name}_{args.seed}"
     config = args.config or HYPERPARAMS / f"{'rsl_rl_ppo' if args.device else name}.yml"
     try:
         hyperparams = load_hyperparams(config, rd.TASK_IDS[args.task])

@@ -244,8 +244,8 @@ class RecoveryLQR(_Controller):
     ):  # fmt: skip
         super().__init__(**env_kwargs)
         task = self.config.task
-        if task.name != "recovery":
-            raise ValueError("RecoveryLQR is for task='recovery'")
+        if task.name not in ("recovery", "recovery_sparse"):
+            raise ValueError(f"RecoveryLQR is for the tasks recovery and recovery_sparse, got {task.name!r}")
         self.target = task.target_speed / self.params.radius
         self.spins = np.linspace(self.target, max_spin, 57) if scheduled else np.array([self.target])
         q = np.diag(1 / np.array([lean_scale, spin_scale, rate_scale, heading_scale]) ** 2)
@@ -267,6 +267,7 @@ BASELINES = {
     "waypoints": GotoLQR,
     "eight": EightLQR,
     "recovery": RecoveryLQR,
+    "recovery_sparse": RecoveryLQR,
     "ice": GotoLQR,
 }
 """The classical baseline of each task."""

@@ -7,7 +7,8 @@ update: nothing crosses to the host during a rollout but the per-iteration log. 
 ``num_steps_per_env``, ``max_iterations``, ``env_kwargs``, and rsl_rl's own ``algorithm``, ``actor`` and ``critic``
 configurations. The run directory gets what ``train.py`` writes for SB3 (``config.yml``, ``command.txt``,
 ``algo.txt``, TensorBoard logs in ``tb/``, ``results.md``), with the model as ``model.pt`` (rsl_rl's checkpoint) and
-``policy.pt`` (TorchScript, its observation normalization included: what ``agents.evaluate --model`` loads).
+``policy.pt2`` (``torch.export``'s program, its observation normalization included: what ``agents.evaluate --model``
+loads).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import torch
 import yaml
 
 import rolling_disk_env as rd
-from agents.evaluate import Result, TorchScriptPolicy
+from agents.evaluate import ExportedPolicy, Result
 from agents.training import ConfigError, check_env_kwargs, positive_int, write_results
 
 try:
@@ -69,7 +70,8 @@ class RslRlVecEnv(VecEnv):
         )
         self.num_envs = num_envs
         self.num_actions = self.env.single_action_space.shape[0]
-        self.max_episode_length = rd.MAX_EPISODE_STEPS
+        self.max_episode_length = rd.TASK_MAX_STEPS[task]
+        self.num_obs = self.env.single_observation_space.shape[0]
         self.device = self.env.unwrapped.device
         self.cfg = {"task": task, "num_envs": num_envs, "device": str(device), **env_kwargs}
         self._observations, _ = self.env.reset(seed=seed)
@@ -108,6 +110,16 @@ class RslRlVecEnv(VecEnv):
 
     def close(self) -> None:
         self.env.close()
+
+
+def export_policy(runner, observation_size: int, path: Path) -> None:
+    """Saves the trained actor with its observation normalization (rsl_rl's ``as_jit`` module) as ``torch.export``'s
+    program of a batch of observations (any size) to a batch of actions, on the CPU: what torch recommends now over
+    TorchScript (``torch.jit.script``, which rsl_rl's own export calls, is deprecated)."""
+    model = runner.alg.get_policy().as_jit().to("cpu").eval()
+    batch = torch.export.Dim("batch")
+    program = torch.export.export(model, (torch.zeros(2, observation_size),), dynamic_shapes=({0: batch},))
+    torch.export.save(program, path)
 
 
 def train_on_device(
@@ -182,12 +194,12 @@ def train_on_device(
     log.info("%d iterations of rsl_rl trained in %.1f s (the first step compiles)", iterations, 60 * minutes)
     env.close()
     runner.save(str(out / "model.pt"))
-    runner.export_policy_to_jit(str(out), "policy.pt")
+    export_policy(runner, env.num_obs, out / "policy.pt2")
 
     evaluated = {"task": task, **env_kwargs}
     trained = num_envs * steps_per_env * iterations
     title = f"{task}: PPO (rsl_rl) on {device}, seed {seed}, {trained} steps in {minutes:.1f} min ({num_envs} envs)"
-    policy = TorchScriptPolicy(out / "policy.pt")
+    policy = ExportedPolicy(out / "policy.pt2")
     start = time.perf_counter()
     results = write_results(out, title, policy, f"PPO (rsl_rl, {device}, {trained} steps)", eval_episodes, evaluated)
     log.info("the final evaluation (%d episodes, on the CPU) took %.1f s", eval_episodes, time.perf_counter() - start)

@@ -8,7 +8,7 @@ examples:
   python -m agents.evaluate --task circle --agent baseline --out eval/   # the task's classical controller
   python -m agents.evaluate --agent passive --episodes 20                 # zero torque, task upright
   python -m agents.evaluate --model runs/upright_ppo_0/model.zip --render human
-  python -m agents.evaluate --model runs/upright_rsl_rl_cuda_0/policy.pt   # a policy of train.py --device
+  python -m agents.evaluate --model runs/upright_rsl_rl_cuda_0/policy.pt2  # a policy of train.py --device
 A model's task and env keyword arguments come from the config.yml that train.py saved beside it.
 """
 
@@ -24,6 +24,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 from stable_baselines3 import PPO, SAC, TD3
+from tqdm import tqdm
 
 import rolling_disk_env as rd
 from agents import show_compiling
@@ -86,14 +87,14 @@ class NormalizedPolicy:
         return self.model.predict(observation, deterministic=deterministic)
 
 
-class TorchScriptPolicy:
-    """A policy exported as TorchScript (``policy.pt`` of ``train.py --device``: rsl_rl's actor with its observation
-    normalization), run on the CPU."""
+class ExportedPolicy:
+    """A policy exported with ``torch.export`` (``policy.pt2`` of ``train.py --device``: rsl_rl's actor with its
+    observation normalization, a batch of observations to a batch of actions), run on the CPU."""
 
     def __init__(self, path: Path):
         import torch
 
-        self.torch, self.policy = torch, torch.jit.load(str(path), map_location="cpu").eval()
+        self.torch, self.policy = torch, torch.export.load(str(path)).module()
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         with self.torch.inference_mode():
@@ -111,11 +112,11 @@ def normalization_file(model: Path) -> Path:
 
 def load_agent(path: Path):
     """A saved model: an SB3 ``.zip`` with its observation statistics (:func:`normalization_file`), if there are any,
-    or a TorchScript policy ``.pt`` (:class:`TorchScriptPolicy`)."""
+    or an exported policy ``.pt2`` (:class:`ExportedPolicy`)."""
     from stable_baselines3.common.vec_env import VecNormalize
 
-    if path.suffix == ".pt":
-        return TorchScriptPolicy(path)
+    if path.suffix == ".pt2":
+        return ExportedPolicy(path)
 
     run = path.parent
     algo = (run / "algo.txt").read_text().strip() if (run / "algo.txt").exists() else "ppo"
@@ -132,12 +133,19 @@ def load_agent(path: Path):
     return NormalizedPolicy(model, normalize)
 
 
-def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, on_step=None, **env_kwargs) -> Result:
+def evaluate(
+    agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, on_step=None, progress: bool = False, **env_kwargs
+) -> Result:
     """Runs ``episodes`` seeded episodes at once on the native vector env, one episode per sub-environment;
     ``on_step(infos, running)``, if given, sees every step's batched info with the mask of the episodes it belongs to
-    (those that had not ended before it)."""
-    steps = rd.TASK_MAX_STEPS[env_kwargs.get("task", "upright")]
+    (those that had not ended before it). With ``progress``, a line says what runs and, on a terminal, a bar counts
+    the steps to the longest episode's end."""
+    task = env_kwargs.get("task", "upright")
+    steps = rd.TASK_MAX_STEPS[task]
     env = rd.RollingDiskVectorEnv(num_envs=episodes, max_episode_steps=steps, **env_kwargs)
+    if progress:
+        print(f"evaluating {name} on {episodes} seeded episodes of task {task} (up to {steps} steps)", flush=True)
+    bar = tqdm(total=steps, unit="step", disable=None if progress else True, leave=False)
     observations, _ = env.reset(seed=seed)
     returns = np.zeros(episodes)
     successes = np.zeros(episodes, dtype=bool)
@@ -151,6 +159,8 @@ def evaluate(agent, name: str, episodes: int = 100, seed: int = EVAL_SEED, on_st
         ending = (terminated | truncated) & ~finished
         successes |= ending & infos["is_success"]
         finished |= ending
+        bar.update()
+    bar.close()
     return Result(name, returns, successes)
 
 
@@ -355,7 +365,7 @@ def main(argv: list[str] | None = None) -> Result:
             parser.error(f"task {task!r} has no classical baseline; tasks with one: {', '.join(BASELINES)}")
         agent = make_agent(name, task, **env_kwargs)
         name = f"baseline: {type(agent).__name__}" if name in ("baseline", "lqr") else name
-    result = evaluate(agent, name, args.episodes, args.seed, task=task, **env_kwargs)
+    result = evaluate(agent, name, args.episodes, args.seed, progress=True, task=task, **env_kwargs)
     print(results_table([result]))
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)

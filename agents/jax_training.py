@@ -78,6 +78,66 @@ class DoneStep:
         return self.env.reset(key, params)
 
 
+def _algorithm(task: str, env_kwargs: dict, config: dict):
+    """rejax's PPO of a block's ``config`` (its ``eval_freq`` cut to the steps asked for: rejax trains in whole
+    evaluation periods) on the task's gymnax env; ``ConfigError`` for what the env or rejax refuses."""
+    config["eval_freq"] = min(positive_int("eval_freq", config.get("eval_freq", 4096)), config["total_timesteps"])
+    try:
+        env = RollingDiskJax(task, **env_kwargs)
+    except ValueError as error:
+        raise ConfigError(str(error)) from error
+    try:
+        return PPO.create(env=DoneStep(env), env_params=env.default_params, **config)
+    except TypeError as error:
+        raise ConfigError(f"rejax's PPO: {error}") from error
+
+
+def _start(algo, hyperparams: dict, key: jax.Array):
+    """rejax's initial training state from ``key``, its policy's log standard deviation set to the block's
+    ``log_std_init`` where it has one."""
+    start = algo.init_state(key)
+    if "log_std_init" in hyperparams:
+        actor = start.actor_ts.params
+        log_std = jnp.full_like(actor["params"]["action_log_std"], float(hyperparams["log_std_init"]))
+        actor = {**actor, "params": {**actor["params"], "action_log_std": log_std}}
+        start = start.replace(actor_ts=start.actor_ts.replace(params=actor))
+    return start
+
+
+def train_seeds_in_jax(task: str, hyperparams: dict, seeds: list[int]) -> dict:
+    """Trains rejax's PPO on the gymnax env of ``task`` once per seed, the seeds ``vmap``ped in one XLA program
+    (PureJaxRL's way: the runs of every seed in one compiled function, a batch of its own each), with the block
+    ``hyperparams`` as :func:`train_in_jax` reads it.
+
+    Returns:
+        ``{"policies": [JaxPolicy per seed], "returns": (seeds, evaluations) mean return of rejax's evaluation
+        episodes every ``eval_freq`` steps, "eval_freq": steps, "compile_s": s, "train_s": s}``: the training's wall
+        time is that of all seeds together (one program), its compile apart.
+    """
+    env_kwargs = check_env_kwargs(task, hyperparams)
+    config = {key: value for key, value in hyperparams.items() if key not in OWN_KEYS}
+    config["total_timesteps"] = positive_int("total_timesteps", config.get("total_timesteps"))
+    with jax.enable_x64(False):
+        algo = _algorithm(task, env_kwargs, config)
+        starts = jax.vmap(lambda key: _start(algo, hyperparams, key))(
+            jnp.stack([jax.random.PRNGKey(seed) for seed in seeds])
+        )
+        use_compilation_cache()
+        began = time.perf_counter()
+        train = jax.jit(jax.vmap(lambda state: algo.train(train_state=state))).lower(starts).compile()
+        compiled = time.perf_counter()
+        states, (_, returns) = jax.block_until_ready(train(starts))
+        trained = time.perf_counter()
+        policies = [JaxPolicy(algo, jax.tree.map(lambda leaf, i=i: leaf[i], states)) for i in range(len(seeds))]
+    return {
+        "policies": policies,
+        "returns": np.asarray(returns).mean(axis=-1),
+        "eval_freq": config["eval_freq"],
+        "compile_s": compiled - began,
+        "train_s": trained - compiled,
+    }
+
+
 class JaxPolicy:
     """The trained actor as ``agents.evaluate`` calls it: the mean action of rejax's Gaussian policy on the
     observation normalized with the training's statistics, for a batch of observations (float32)."""
@@ -137,29 +197,13 @@ def train_in_jax(
         "total_timesteps", config.get("total_timesteps") if timesteps is None else timesteps
     )
     with jax.enable_x64(False):  # rejax's networks and statistics are float32: the env runs in float32 too
-        # rejax trains in whole evaluation periods: no longer than the steps asked for.
-        config["eval_freq"] = min(positive_int("eval_freq", config.get("eval_freq", 4096)), config["total_timesteps"])
-        try:
-            env = RollingDiskJax(task, **env_kwargs)
-        except ValueError as error:
-            raise ConfigError(str(error)) from error
-        try:
-            algo = PPO.create(env=DoneStep(env), env_params=env.default_params, **config)
-        except TypeError as error:
-            raise ConfigError(f"rejax's PPO: {error}") from error
-
+        algo = _algorithm(task, env_kwargs, config)
         out.mkdir(parents=True, exist_ok=True)
         (out / "config.yml").write_text(yaml.safe_dump({env_id: {**hyperparams, **config}}, sort_keys=False))
         (out / "command.txt").write_text(shlex.join([sys.executable, *sys.argv]) + "\n")
         (out / "algo.txt").write_text("rejax_ppo\n")
 
-        key = jax.random.PRNGKey(seed)
-        start = algo.init_state(key)
-        if "log_std_init" in hyperparams:
-            actor = start.actor_ts.params
-            log_std = jnp.full_like(actor["params"]["action_log_std"], float(hyperparams["log_std_init"]))
-            actor = {**actor, "params": {**actor["params"], "action_log_std": log_std}}
-            start = start.replace(actor_ts=start.actor_ts.replace(params=actor))
+        start = _start(algo, hyperparams, jax.random.PRNGKey(seed))
         cache = use_compilation_cache()
         began = time.perf_counter()
         train = jax.jit(lambda state: algo.train(train_state=state)).lower(start).compile()

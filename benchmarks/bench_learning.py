@@ -1,230 +1,549 @@
-"""Learning curves and the benchmark table: the passive disk, the classical baseline and PPO on every task.
+"""The learning benchmark: every task x trainer x seeds, with interval estimates.
 
-``python benchmarks/bench_learning.py [--quick] [--out DIR] [--seeds N] [--tasks T ...]`` writes ``learning.md`` and
-``learning_curves.png`` to DIR (default ``benchmarks/results``); the runs go to ``runs/bench_learning/`` (models,
-TensorBoard logs).
+Commands (``python benchmarks/bench_learning.py <command> ...``):
 
-For each task, PPO is trained by ``agents.training.train`` (what ``train.py`` runs) with the task's block of
-``agents/hyperparams/ppo.yml``, with training seeds 0, 1 and 2, one after the other (one torch thread each).
-``train``'s periodic evaluations (every 10,000 steps, 10 episodes, deterministic actions; reported through its
-``on_evaluation`` callback) give the learning curves: the mean over the seeds, with the range (min to max) shaded,
-against environment steps, and the baseline's and the passive disk's level as horizontal lines. ``train``'s final
-evaluation gives the table: 100 seeded episodes (seeds 10000 to 10099, the same for every agent) of the trained
-policy, the passive disk and the task's baseline (``agents.baselines.BASELINES``); PPO's success rate and mean
-return as mean +- std across the training seeds. Wall time is the whole ``train`` call (training, periodic and
-final evaluations); CPU time is this process's, which another job on the machine does not inflate.
+* ``cell --task T --trainer X [--seeds S ...]``: trains one cell, trainer X on task T, once per seed, and writes its
+  record, ``<out>/learning/<X>/<T>.json``;
+* ``table [--jobs 2]``: every cell whose record is missing (or describes other settings), then ``report``; the trainers
+  whose library is not installed here are named with the command that runs them (rsl_rl's in a venv of the ``[gpu]``
+  extra, rejax's of the ``[jax]`` extra);
+* ``report``: the report of the records there are: ``<out>/learning.md``, its charts, and the manual's page
+  ``docs/learning-benchmark.md``.
 
-For ``goto``, a second table places the target: the success rate of the baseline and of each trained policy over
-100 episodes per cell, with the target's distance and bearing drawn from a cell's ranges (``task_options``); the
-mirror image of a bearing behaves alike, so bearings run from 0 to pi (to the left). Distances under 3 m lie outside
-the training range.
+``--quick`` (any command) is a smoke run in another folder: two seeds, 4,096 steps, 10 evaluation episodes.
 
-``--quick`` trains 20,000 steps per run with two seeds and evaluates 10 episodes: a smoke run.
+Trainers (:data:`TRAINERS`): SB3's PPO and SAC (``agents.training.train``, what ``train.py`` runs), rsl_rl's PPO on
+the torch vector env over the CPU engine (``agents.device_training``, ``train.py --device cpu``) and rejax's PPO
+compiled with the JAX env into one XLA program, its seeds ``vmap``ped in that program (``agents.jax_training``); each
+with its hyperparameter file's block of the task, whose budget of environment steps is the run's (never cut here),
+5 seeds a cell (10 vmapped). Each run ends with the same evaluation: 100 seeded episodes (seeds 10000 to 10099) of the
+Gymnasium vector env, deterministic actions; its success rate and mean return are the run's scores. A cell's record
+holds every run's scores, its learning curve (the trainer's periodic evaluations against environment steps and wall
+time), its wall and CPU time, the machine, the device, the commit, and a hash of the settings it ran with (the block,
+the evaluation): ``tests/test_learning_results.py`` flags a record whose settings are no longer the files'.
+
+The report (:mod:`agents.reporting`): per cell the interquartile mean (IQM) over the runs with a 95% percentile
+bootstrap interval, of the success rate and of the return normalized per task from the passive disk (0) to the
+classical baseline (1), or to the best agent where the baseline does not beat the passive disk by a tenth of the range
+(the table says which); over the tasks, the IQM with a stratified bootstrap interval; performance profiles; learning
+curves against steps and against wall time (rejax's training returns at its end: its wall time spread evenly over its
+steps, and labelled so).
 """
 
 from __future__ import annotations
 
-import math
-import statistics
+import argparse
+import hashlib
+import json
+import os
+import resource
+import subprocess
+import sys
 import time
+from dataclasses import dataclass
+from importlib.util import find_spec
 from pathlib import Path
 
 import numpy as np
-from _common import ROOT, arguments, table, write_markdown
+from _common import RESULTS, ROOT, cpu, machine, table, write_markdown
 
 import rolling_disk_env as rd
+from agents import reporting
 from agents.baselines import BASELINES
-from agents.evaluate import EVAL_SEED, evaluate, load_agent
-from agents.training import HYPERPARAMS, load_hyperparams, train
+from agents.evaluate import EVAL_SEED, PassiveAgent, evaluate
+from agents.training import HYPERPARAMS, load_hyperparams
 
 RUNS = ROOT / "runs" / "bench_learning"
-DISTANCES = ((1.0, 2.0), (2.0, 3.0), (3.0, 5.5), (5.5, 8.0))
-"""m. The target-placement table's distance bins."""
-BEARINGS = {
-    "ahead (0 to pi/4)": (0.0, math.pi / 4),
-    "beside (pi/4 to 3pi/4)": (math.pi / 4, 3 * math.pi / 4),
-    "behind (3pi/4 to pi)": (3 * math.pi / 4, math.pi),
+EPISODES = 100
+"""Evaluation episodes of every run, and of the references."""
+DOCS_PAGE = ROOT / "docs" / "learning-benchmark.md"
+
+
+@dataclass(frozen=True)
+class Trainer:
+    """A trainer of the table: its name in it, the hyperparameter file its blocks come from, the seeds of a cell,
+    the Python module it needs, and the extra that installs it."""
+
+    label: str
+    file: str
+    seeds: int
+    needs: str
+    extra: str
+
+
+TRAINERS = {
+    "sb3-ppo": Trainer("PPO (SB3)", "ppo.yml", 5, "stable_baselines3", "train"),
+    "sb3-sac": Trainer("SAC (SB3)", "sac.yml", 5, "stable_baselines3", "train"),
+    "rsl_rl-ppo": Trainer("PPO (rsl_rl, CPU engine)", "rsl_rl_ppo.yml", 5, "rsl_rl", "gpu"),
+    "rejax-ppo": Trainer("PPO (rejax, JAX, 10 seeds vmapped)", "rejax_ppo.yml", 10, "rejax", "jax"),
 }
-"""rad. Its bearing bins, from the initial rolling direction, to the left (the mirror image behaves alike)."""
+"""The table's columns, by their command-line name."""
+JAX_TASKS = tuple(task for task in rd.TASK_IDS if task != "ice")
+"""The tasks the JAX env runs (not ice: it has no Coulomb contact)."""
 
 
-def run_task(task: str, seeds: list[int], timesteps: int | None, episodes: int) -> dict:
-    """Trains PPO on ``task`` once per seed; returns the curves, the final evaluations and the times."""
-    block = load_hyperparams(HYPERPARAMS / "ppo.yml", rd.TASK_IDS[task])
-    runs = []
-    for seed in seeds:
-        curve = []
-        out = RUNS / f"{task}_ppo_{seed}"
-        wall, cpu = time.perf_counter(), time.process_time()
-        results = train(
-            task,
-            "ppo",
-            block,
-            out,
-            timesteps=timesteps,
-            seed=seed,
-            eval_episodes=episodes,
-            progress_bar=False,
-            on_evaluation=lambda steps, mean_return, success, curve=curve: curve.append((steps, mean_return, success)),
-        )
-        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        ppo, passive, baseline = results
-        print(f"{task}, seed {seed}: {ppo.successes.mean():.0%} success in {wall / 60:.1f} min", flush=True)
-        runs.append({"seed": seed, "out": out, "curve": np.array(curve), "ppo": ppo, "wall": wall, "cpu": cpu})
-    return {"task": task, "runs": runs, "passive": passive, "baseline": baseline, "steps": ppo.name}
-
-
-def summary_rows(outcome: dict) -> list[list[object]]:
-    """The benchmark table's rows of one task: passive disk, baseline, PPO over the seeds."""
-    task, runs = outcome["task"], outcome["runs"]
-    rows = []
-    for name, result in (
-        ("passive disk", outcome["passive"]),
-        (f"baseline `{BASELINES[task].__name__}`", outcome["baseline"]),
-    ):
-        rows.append(
-            [
-                task,
-                name,
-                f"{result.successes.mean():.0%}",
-                f"{result.returns.mean():.1f} +- {result.returns.std():.1f}",
-                "",
-            ]
-        )
-    successes = [100 * run["ppo"].successes.mean() for run in runs]
-    returns = [run["ppo"].returns.mean() for run in runs]
-    walls = [run["wall"] / 60 for run in runs]
-    steps = runs[0]["ppo"].name.split("(trained, ")[-1].rstrip(")")
-    rows.append(
-        [
-            task,
-            f"PPO, {steps}, {len(runs)} seeds",
-            f"{statistics.mean(successes):.0f}% +- {_std(successes):.0f}%",
-            f"{statistics.mean(returns):.1f} +- {_std(returns):.1f}",
-            f"{statistics.mean(walls):.1f} min (max {max(walls):.1f})",
-        ]
-    )
-    return rows
-
-
-def seed_rows(outcome: dict) -> list[list[object]]:
+def cells() -> list[tuple[str, str]]:
+    """Every cell of the table: (trainer, task)."""
     return [
-        [
-            outcome["task"],
-            run["seed"],
-            f"{run['ppo'].successes.mean():.0%}",
-            f"{run['ppo'].returns.mean():.1f} +- {run['ppo'].returns.std():.1f}",
-            f"{run['wall'] / 60:.1f}",
-            f"{run['cpu'] / 60:.1f}",
-        ]
-        for run in outcome["runs"]
+        (trainer, task) for trainer in TRAINERS for task in rd.TASK_IDS if trainer != "rejax-ppo" or task in JAX_TASKS
     ]
 
 
-def _std(values: list[float]) -> float:
-    return statistics.stdev(values) if len(values) > 1 else 0.0
+def block(trainer: str, task: str) -> dict:
+    """The hyperparameter block of a cell, as its file gives it."""
+    return load_hyperparams(HYPERPARAMS / TRAINERS[trainer].file, rd.TASK_IDS[task])
 
 
-def placement_rows(outcome: dict, episodes: int) -> list[list[object]]:
-    """Success rates of the goto baseline and of each trained policy, by the target's distance and bearing."""
-    rows = []
-    agents = [("baseline", None)] + [(f"PPO seed {run['seed']}", run["out"] / "model.zip") for run in outcome["runs"]]
-    for distances in DISTANCES:
-        for bearing_name, bearings in BEARINGS.items():
-            options = {"task": "goto", "task_options": {"distance_range": distances, "bearing_range": bearings}}
-            cells = []
-            for name, path in agents:
-                agent = BASELINES["goto"](**options) if path is None else load_agent(path)
-                cells.append(f"{evaluate(agent, name, episodes, **options).successes.mean():.0%}")
-            rows.append([f"{distances[0]:g} to {distances[1]:g}", bearing_name, *cells])
-    return rows
+def settings_hash(trainer: str, task: str) -> str:
+    """The sha256 of what a cell's runs depend on but the code: its block, the evaluation's episodes and seeds."""
+    settings = {
+        "trainer": trainer,
+        "task": task,
+        "block": block(trainer, task),
+        "episodes": EPISODES,
+        "seed": EVAL_SEED,
+    }
+    return hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def plot(outcomes: list[dict], path: Path) -> None:
+def commit() -> str:
+    """The checkout's commit, ``-dirty`` where it has changes."""
+
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+
+    head = git("rev-parse", "--short", "HEAD") or "unknown"
+    return head + ("-dirty" if git("status", "--porcelain", "--untracked-files=no") else "")
+
+
+def record_path(out: Path, trainer: str, task: str) -> Path:
+    return out / "learning" / trainer / f"{task}.json"
+
+
+def run_cell(trainer: str, task: str, seeds: list[int], out: Path, quick: bool) -> Path:
+    """Trains a cell once per seed and writes its record."""
+    started = time.time()
+    runs = RUNNERS[trainer](task, seeds, quick)
+    record = {
+        "trainer": trainer,
+        "task": task,
+        "budget": runs[0]["steps"],
+        "episodes": 10 if quick else EPISODES,
+        "settings_hash": settings_hash(trainer, task),
+        "commit": commit(),
+        "machine": machine(),
+        "cpu": cpu(),
+        "device": "cpu",
+        "date": time.strftime("%Y-%m-%d"),
+        "wall_s": time.time() - started,
+        "runs": runs,
+    }
+    path = record_path(out, trainer, task)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(record, indent=1) + "\n")
+    print(f"{trainer} on {task}: {[round(run['success'], 2) for run in runs]} success, wrote {path}", flush=True)
+    return path
+
+
+def _scores(result) -> dict:
+    """A run's final evaluation as a record keeps it."""
+    return {
+        "success": float(result.successes.mean()),
+        "mean_return": float(result.returns.mean()),
+        "returns": [round(float(value), 4) for value in result.returns],
+    }
+
+
+def _cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _run_sb3(algo: str):
+    def run(task: str, seeds: list[int], quick: bool) -> list[dict]:
+        from agents.training import train
+
+        runs = []
+        for seed in seeds:
+            curve = []
+            began, cpu_began = time.perf_counter(), _cpu_seconds()
+
+            def listen(steps, mean_return, success, curve=curve, began=began):
+                curve.append([steps, time.perf_counter() - began, mean_return, success])
+
+            results = train(
+                task,
+                algo,
+                block(f"sb3-{algo}", task),
+                RUNS / f"sb3-{algo}" / f"{task}_{seed}",
+                timesteps=4096 if quick else None,
+                seed=seed,
+                eval_episodes=10 if quick else EPISODES,
+                progress_bar=False,
+                on_evaluation=listen,
+            )
+            steps = int(results[0].name.split("(trained, ")[1].split(" ")[0])
+            wall, cpu_s = time.perf_counter() - began, _cpu_seconds() - cpu_began
+            runs.append(
+                {"seed": seed, "steps": steps, "wall_s": wall, "cpu_s": cpu_s, "curve": curve, **_scores(results[0])}
+            )
+        return runs
+
+    return run
+
+
+def _run_rsl_rl(task: str, seeds: list[int], quick: bool) -> list[dict]:
+    from agents.device_training import train_on_device
+
+    runs = []
+    for seed in seeds:
+        out = RUNS / "rsl_rl-ppo" / f"{task}_{seed}"
+        began, cpu_began = time.perf_counter(), _cpu_seconds()
+        results = train_on_device(
+            task,
+            block("rsl_rl-ppo", task),
+            out,
+            device="cpu",
+            timesteps=4096 * 16 if quick else None,
+            seed=seed,
+            eval_episodes=10 if quick else EPISODES,
+        )
+        wall, cpu_s = time.perf_counter() - began, _cpu_seconds() - cpu_began
+        steps = int(results[0].name.rsplit(", ", 1)[1].split(" ")[0])
+        curve = _tensorboard_curve(out / "tb", wall, steps)
+        runs.append(
+            {"seed": seed, "steps": steps, "wall_s": wall, "cpu_s": cpu_s, "curve": curve, **_scores(results[0])}
+        )
+    return runs
+
+
+def _tensorboard_curve(folder: Path, wall: float, steps: int) -> list[list[float]]:
+    """rsl_rl's learning curve from its TensorBoard log: the mean return of the training episodes that ended by each
+    iteration (``Train/mean_reward``, rsl_rl's buffer of the latest ones) and the success rate of those of the
+    iteration (``/success_rate``), at the iteration's environment steps and wall time (from the log's times); empty
+    where no episode ended (a run shorter than an episode)."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    events = EventAccumulator(str(folder)).Reload()
+    tags = events.Tags()["scalars"]
+    if "Train/mean_reward" not in tags:
+        return []
+    returns = events.Scalars("Train/mean_reward")
+    success = {event.step: event.value for event in events.Scalars("/success_rate")} if "/success_rate" in tags else {}
+    first, iterations = returns[0].wall_time, max(1, returns[-1].step + 1)
+    return [
+        [(event.step + 1) * steps / iterations, event.wall_time - first, event.value, success.get(event.step)]
+        for event in returns
+    ]
+
+
+def _run_rejax(task: str, seeds: list[int], quick: bool) -> list[dict]:
+    from agents.jax_training import train_seeds_in_jax
+
+    hyperparams = block("rejax-ppo", task)
+    if quick:
+        hyperparams = {**hyperparams, "total_timesteps": 4096, "eval_freq": 2048}
+    began, cpu_began = time.perf_counter(), _cpu_seconds()
+    trained = train_seeds_in_jax(task, hyperparams, seeds)
+    steps, every = int(hyperparams["total_timesteps"]), trained["eval_freq"]
+    runs = []
+    for seed, policy, returns in zip(seeds, trained["policies"], trained["returns"]):
+        result = evaluate(policy, "rejax", 10 if quick else EPISODES, task=task)
+        # One program trains every seed: its wall time, spread evenly over each run's steps (so labelled).
+        per_step = trained["train_s"] / steps
+        curve = [[(j + 1) * every, (j + 1) * every * per_step, float(value), None] for j, value in enumerate(returns)]
+        runs.append({"seed": seed, "steps": steps, "curve": curve, **_scores(result)})
+    wall, cpu_s = time.perf_counter() - began, _cpu_seconds() - cpu_began
+    for run in runs:
+        run.update(wall_s=wall, cpu_s=cpu_s, compile_s=trained["compile_s"], train_s=trained["train_s"])
+    return runs
+
+
+RUNNERS = {"sb3-ppo": _run_sb3("ppo"), "sb3-sac": _run_sb3("sac"), "rsl_rl-ppo": _run_rsl_rl, "rejax-ppo": _run_rejax}
+
+
+def references(out: Path, quick: bool) -> dict:
+    """The passive disk's and the classical baseline's scores per task (``<out>/learning/references.json``, computed
+    once: they do not learn)."""
+    path = out / "learning" / "references.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    episodes = 10 if quick else EPISODES
+    found = {}
+    for task in rd.TASK_IDS:
+        passive = evaluate(PassiveAgent(), "passive", episodes, task=task)
+        baseline = evaluate(BASELINES[task](task=task), BASELINES[task].__name__, episodes, task=task)
+        found[task] = {"passive": _scores(passive), "baseline": {"name": BASELINES[task].__name__, **_scores(baseline)}}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(found, indent=1) + "\n")
+    return found
+
+
+def load_records(out: Path) -> dict:
+    """Every cell's record there is, by (trainer, task)."""
+    found = {}
+    for trainer, task in cells():
+        path = record_path(out, trainer, task)
+        if path.exists():
+            found[trainer, task] = json.loads(path.read_text())
+    return found
+
+
+def report(out: Path, quick: bool) -> None:
+    """Writes ``learning.md`` with its charts, and (not ``quick``) the manual's page, from the records."""
+    records, refs = load_records(out), references(out, quick)
+    if not records:
+        raise SystemExit(f"no records in {out / 'learning'}: run the cells first")
+    ladder = sorted(
+        rd.TASK_IDS,
+        key=lambda task: (
+            -np.mean([run["success"] for run in records.get(("sb3-ppo", task), {"runs": [{"success": 0}]})["runs"]])
+        ),
+    )
+    scales = {}
+    for task in rd.TASK_IDS:
+        agents = [run["mean_return"] for (_, t), record in records.items() if t == task for run in record["runs"]]
+        best = max(agents, default=refs[task]["baseline"]["mean_return"])
+        scales[task] = reporting.normalization(
+            refs[task]["passive"]["mean_return"], refs[task]["baseline"]["mean_return"], best
+        )
+    rows, aggregate = [], {}
+    for task in ladder:
+        low, high, reference = scales[task]
+        ref = refs[task]
+        row = [
+            f"[{task}](../../docs/tasks/{task}.md)",
+            f"{ref['passive']['success']:.0%}",
+            f"{ref['baseline']['name']} {ref['baseline']['success']:.0%}",
+            reference,
+        ]
+        for trainer in TRAINERS:
+            record = records.get((trainer, task))
+            if record is None:
+                row.append("-")
+                continue
+            success = np.array([run["success"] for run in record["runs"]])
+            score = reporting.normalized([run["mean_return"] for run in record["runs"]], low, high)
+            s_low, s_high = reporting.percentile_interval(success)
+            n_low, n_high = reporting.percentile_interval(score)
+            row.append(
+                f"{reporting.iqm(success):.0%} [{s_low:.0%}, {s_high:.0%}]; "
+                f"{reporting.iqm(score):.2f} [{n_low:.2f}, {n_high:.2f}]"
+            )
+            aggregate.setdefault(trainer, {})[task] = (success, score)
+        rows.append(row)
+    header = ["task (ladder order)", "passive", "baseline", "1 =", *(TRAINERS[t].label for t in TRAINERS)]
+    totals = []
+    for trainer, by_task in aggregate.items():
+        successes = [values[0] for values in by_task.values()]
+        scores = [values[1] for values in by_task.values()]
+        s_low, s_high = reporting.stratified_interval(successes)
+        n_low, n_high = reporting.stratified_interval(scores)
+        totals.append(
+            [
+                TRAINERS[trainer].label,
+                len(by_task),
+                f"{reporting.iqm(np.concatenate(successes)):.0%} [{s_low:.0%}, {s_high:.0%}]",
+                f"{reporting.iqm(np.concatenate(scores)):.2f} [{n_low:.2f}, {n_high:.2f}]",
+            ]
+        )
+    compute = [
+        [
+            TRAINERS[trainer].label,
+            task,
+            record["budget"],
+            len(record["runs"]),
+            f"{np.median([run['wall_s'] for run in record['runs']]) / 60:.1f}",
+            f"{record['wall_s'] / 60:.1f}",
+            record["device"],
+            record["cpu"],
+            record["commit"],
+        ]
+        for (trainer, task), record in sorted(records.items())
+    ]
+    total_wall = sum(record["wall_s"] for record in records.values()) / 3600
+    charts(records, refs, scales, ladder, out)
+    sections = [
+        "![success and normalized return, per task and over the tasks](learning_iqm.png)",
+        "",
+        "![performance profiles](learning_profiles.png)",
+        "",
+        "![learning curves](learning_curves.png)",
+        "",
+        "## The table",
+        "",
+        f"Per cell: the IQM over the training seeds, with its 95% bootstrap interval, of the success rate over "
+        f"{EPISODES} seeded evaluation episodes (seeds {EVAL_SEED} to {EVAL_SEED + EPISODES - 1}), then of the mean "
+        "return normalized from the passive disk (0) to the column `1 =` (the classical baseline, or the best agent "
+        "where the baseline does not beat the passive disk by a tenth of the range). Tasks in the ladder's order: by "
+        "SB3's PPO's success, highest first.",
+        "",
+        table(header, rows),
+        "",
+        "Over the tasks (the IQM of every run, a stratified bootstrap interval):",
+        "",
+        table(["trainer", "tasks", "success", "normalized return"], totals),
+        "",
+        "## Compute",
+        "",
+        f"The whole table: {total_wall:.1f} h of wall time on this machine, cells one after the other (two at once on "
+        "the two cores). Per cell: its budget of environment steps (from the trainer's hyperparameter file), seeds, "
+        "the median wall time of a run and the cell's, and where it ran.",
+        "",
+        table(
+            ["trainer", "task", "steps a run", "seeds", "run (min)", "cell (min)", "device", "CPU", "commit"], compute
+        ),
+    ]
+    command = "python benchmarks/bench_learning.py table" + (" --quick" if quick else "")
+
+    write_markdown("learning", "The learning benchmark: tasks x trainers x seeds", command, sections, out)
+
+
+def charts(records: dict, refs: dict, scales: dict, ladder: list[str], out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, axes = plt.subplots(2, len(outcomes), figsize=(4.5 * len(outcomes), 6.5), squeeze=False)
-    for column, outcome in enumerate(outcomes):
-        curves = [run["curve"] for run in outcome["runs"]]
-        length = min(len(curve) for curve in curves)
-        steps = curves[0][:length, 0]
-        for row, (index, label) in enumerate(((1, "evaluation return"), (2, "success rate"))):
-            ax = axes[row, column]
-            values = np.array([curve[:length, index] for curve in curves])
-            ax.plot(steps, values.mean(axis=0), color="C0", label=f"PPO, mean of {len(curves)} seeds")
-            ax.fill_between(steps, values.min(axis=0), values.max(axis=0), color="C0", alpha=0.25, label="PPO, range")
-            for name, result, style in (
-                ("baseline", outcome["baseline"], "C3"),
-                ("passive disk", outcome["passive"], "0.5"),
-            ):
-                level = result.returns.mean() if index == 1 else result.successes.mean()
-                ax.axhline(level, color=style, linestyle="--", label=name)
-            ax.set_xlabel("environment steps")
-            ax.set_ylabel(label)
-            if row == 0:
-                ax.set_title(outcome["task"])
-            if row == 1:
-                ax.set_ylim(-0.03, 1.03)
-            ax.grid(alpha=0.3)
-    axes[1, 0].legend(fontsize="small", loc="center right")
-    figure.suptitle("PPO learning curves (periodic evaluations: 10 episodes every 10,000 steps)")
+    trainers = [trainer for trainer in TRAINERS if any(t == trainer for t, _ in records)]
+    figure, axes = plt.subplots(1, 2, figsize=(13, 4.5))
+    width = 0.8 / max(1, len(trainers))
+    for k, trainer in enumerate(trainers):
+        for axis, index in ((axes[0], "success"), (axes[1], "score")):
+            points, lows, highs, places = [], [], [], []
+            for j, task in enumerate(ladder):
+                record = records.get((trainer, task))
+                if record is None:
+                    continue
+                values = _values(record, scales[task], index)
+                low, high = reporting.percentile_interval(values)
+                points.append(reporting.iqm(values))
+                lows.append(points[-1] - low)
+                highs.append(high - points[-1])
+                places.append(j + (k - (len(trainers) - 1) / 2) * width)
+            axis.bar(places, points, width, yerr=[lows, highs], capsize=2, label=TRAINERS[trainer].label)
+    for axis, label in (
+        (axes[0], "success rate (IQM, 95% interval)"),
+        (axes[1], "normalized return (IQM, 95% interval)"),
+    ):
+        axis.set_xticks(range(len(ladder)), ladder)
+        axis.set_ylabel(label)
+        axis.axhline(1.0, color="0.5", lw=0.8, ls=":")
+        axis.grid(axis="y", alpha=0.3)
+    axes[0].legend(fontsize="small")
+    figure.suptitle("Each task, each trainer: IQM over the seeds")
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
+    figure.savefig(out / "learning_iqm.png", dpi=100)
+    plt.close(figure)
+
+    figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    thresholds = np.linspace(0.0, 1.2, 61)
+    for trainer in trainers:
+        scores = np.concatenate(
+            [_values(record, scales[task], "score") for (t, task), record in records.items() if t == trainer]
+        )
+        axis.plot(thresholds, reporting.performance_profile(scores, thresholds), label=TRAINERS[trainer].label)
+    axis.set(xlabel="normalized return tau", ylabel="fraction of runs with score > tau", title="Performance profiles")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize="small")
+    figure.tight_layout()
+    figure.savefig(out / "learning_profiles.png", dpi=100)
+    plt.close(figure)
+
+    figure, axes = plt.subplots(2, len(ladder), figsize=(3.2 * len(ladder), 6), squeeze=False)
+    for j, task in enumerate(ladder):
+        low, high, _ = scales[task]
+        for trainer in trainers:
+            record = records.get((trainer, task))
+            if record is None:
+                continue
+            curves = [
+                np.array([point[:3] for point in run["curve"]], dtype=float) for run in record["runs"] if run["curve"]
+            ]
+            if not curves:
+                continue
+            length = min(len(curve) for curve in curves)
+            stacked = np.stack([curve[:length] for curve in curves])
+            normalized = reporting.normalized(stacked[:, :, 2], low, high)
+            label = TRAINERS[trainer].label + (" (wall time spread)" if trainer == "rejax-ppo" else "")
+            for row, column in ((0, 0), (1, 1)):
+                x = stacked[:, :, column].mean(axis=0) / (60 if column else 1)
+                axes[row, j].plot(x, reporting.iqm(normalized, axis=0), label=label)
+        axes[0, j].set(title=task, xlabel="environment steps")
+        axes[1, j].set(xlabel="wall time (min)")
+        for row in range(2):
+            axes[row, j].grid(alpha=0.3)
+    axes[0, 0].set_ylabel("normalized return (IQM)")
+    axes[1, 0].set_ylabel("normalized return (IQM)")
+    axes[1, 0].legend(fontsize="x-small")
+    figure.suptitle("Learning curves: each trainer's own periodic evaluations")
+    figure.tight_layout()
+    figure.savefig(out / "learning_curves.png", dpi=90)
     plt.close(figure)
 
 
+def _values(record: dict, scale: tuple, which: str) -> np.ndarray:
+    if which == "success":
+        return np.array([run["success"] for run in record["runs"]])
+    return reporting.normalized([run["mean_return"] for run in record["runs"]], scale[0], scale[1])
+
+
+def table_command(out: Path, quick: bool, jobs: int) -> None:
+    """Runs every missing (or stale) cell whose trainer is installed, ``jobs`` at once, then :func:`report`."""
+    pending, skipped = [], []
+    for trainer, task in cells():
+        path = record_path(out, trainer, task)
+        current = path.exists() and json.loads(path.read_text())["settings_hash"] == settings_hash(trainer, task)
+        if current:
+            continue
+        if find_spec(TRAINERS[trainer].needs) is None:
+            skipped.append((trainer, task))
+        else:
+            pending.append((trainer, task))
+    running: list[subprocess.Popen] = []
+    for trainer, task in pending:
+        while len(running) >= jobs:
+            running = [process for process in running if process.poll() is None]
+            time.sleep(5)
+        command = [sys.executable, __file__, "cell", "--task", task, "--trainer", trainer, "--out", str(out)]
+        running.append(subprocess.Popen([*command, *(["--quick"] if quick else [])], env={**os.environ}))
+    for process in running:
+        process.wait()
+    for trainer, task in skipped:
+        print(
+            f"skipped {trainer} on {task}: {TRAINERS[trainer].needs} is not installed; in a venv of the "
+            f"[{TRAINERS[trainer].extra}] extra: python benchmarks/bench_learning.py cell --task {task} "
+            f"--trainer {trainer}",
+            flush=True,
+        )
+    report(out, quick)
+
+
 def main() -> None:
-    args = arguments(
-        __doc__,
-        seeds=dict(type=int, default=3, help="training seeds per task (default: %(default)s)"),
-        tasks=dict(nargs="+", choices=sorted(rd.TASK_IDS), default=list(rd.TASK_IDS), help="tasks (default: all)"),
-    )
-    seeds = list(range(2 if args.quick else args.seeds))
-    timesteps, episodes = (20_000, 10) if args.quick else (None, 100)
-    outcomes = [run_task(task, seeds, timesteps, episodes) for task in args.tasks]
-    plot(outcomes, args.out / "learning_curves.png")
-    summary = table(
-        ["task", "agent", "success", "return", "wall time per run"],
-        [row for outcome in outcomes for row in summary_rows(outcome)],
-    )
-    per_seed = table(
-        ["task", "seed", "success", "return (mean +- std over episodes)", "wall time (min)", "CPU time (min)"],
-        [row for outcome in outcomes for row in seed_rows(outcome)],
-    )
-    sections = [
-        f"{episodes} evaluation episodes per agent (seeds {EVAL_SEED} to {EVAL_SEED + episodes - 1}, deterministic "
-        f"actions); PPO trained with `python train.py --task <task>`'s settings (`agents/hyperparams/ppo.yml`), "
-        f"seeds {', '.join(map(str, seeds))}. Passive disk and baseline: success rate, and mean +- std return over "
-        "the episodes; PPO: mean +- std across the seeds of each seed's success rate and mean return.",
-        "",
-        summary,
-        "",
-        "![learning curves](learning_curves.png)",
-        "",
-        "## Each training seed",
-        "",
-        per_seed,
-    ]
-    goto = next((outcome for outcome in outcomes if outcome["task"] == "goto"), None)
-    if goto is not None:
-        header = ["target distance (m)", "bearing", "baseline", *(f"PPO seed {run['seed']}" for run in goto["runs"])]
-        sections += [
-            "",
-            "## goto: where the target lies",
-            "",
-            f"Success rate over {episodes} episodes per cell, the target drawn in the cell: its distance, and its "
-            "bearing from the initial rolling direction, to the left (to the right is the mirror image). Training "
-            "draws 3 to 8 m at any bearing.",
-            "",
-            table(header, placement_rows(goto, episodes)),
-        ]
-    command = "python benchmarks/bench_learning.py" + (" --quick" if args.quick else "")
-    write_markdown(
-        "learning", "Learning curves: passive disk, classical baseline and PPO per task", command, sections, args.out
-    )
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("command", choices=("cell", "table", "report"))
+    parser.add_argument("--task", choices=list(rd.TASK_IDS))
+    parser.add_argument("--trainer", choices=list(TRAINERS))
+    parser.add_argument("--seeds", type=int, nargs="+", help="the cell's seeds (default: 0 to the trainer's count)")
+    parser.add_argument("--jobs", type=int, default=2, help="cells at once (default: %(default)s)")
+    parser.add_argument("--quick", action="store_true", help="a smoke run: 2 seeds, 4096 steps, 10 episodes")
+    parser.add_argument("--out", type=Path, help="folder of the results (default: benchmarks/results)")
+    args = parser.parse_args()
+    out = args.out or (RUNS / "quick" if args.quick else RESULTS)
+    from agents import show_compiling
+
+    show_compiling()
+    if args.command == "cell":
+        if args.task is None or args.trainer is None:
+            parser.error("cell needs --task and --trainer")
+        if (args.trainer, args.task) not in cells():
+            parser.error(f"{args.trainer} does not run task {args.task!r} (JAX has no Coulomb contact)")
+        seeds = args.seeds or list(range(2 if args.quick else TRAINERS[args.trainer].seeds))
+        run_cell(args.trainer, args.task, seeds, out, args.quick)
+    elif args.command == "table":
+        table_command(out, args.quick, args.jobs)
+    else:
+        report(out, args.quick)
 
 
 if __name__ == "__main__":

@@ -49,6 +49,7 @@ TASK_SPECS = (
     ("waypoints", "RollingDiskWaypoints-v0", 250.0, 1000),
     ("eight", "RollingDiskEight-v0", 1000.0, 1250),
     ("recovery", "RollingDiskRecovery-v0", 80.0, MAX_EPISODE_STEPS),
+    ("recovery_sparse", "RollingDiskRecoverySparse-v0", 0.9, MAX_EPISODE_STEPS),
     ("ice", "RollingDiskIce-v0", 150.0, MAX_EPISODE_STEPS),
 )
 """One id per task, with the task fixed: ``(task, id, reward_threshold, max_episode_steps)``. A new task's id is one

@@ -43,6 +43,7 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from rolling_disk_env import derivation as d
+from rolling_disk_env.constants import INFO_SETS, set_suffix
 
 GENERATED_DIR = Path(__file__).parent / "_generated"
 
@@ -643,9 +644,7 @@ CONTACT_ROLL = """    period, substeps, coulomb = config[PERIOD], int(config[SUB
         kept = (lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i])  # read either way: no branch
         dc1, dc2 = (velocity[0] if held else kept[0]), (velocity[1] if held else kept[1])
         lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i] = dc1, dc2
-        lanes[SLIDES, k, i] = 0.0 if held else 1.0
-        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = dc1, dc2
-        info[CONTACT_ROWS + 2, k, i] = info[CONTACT_ROWS + 3, k, i] = info[CONTACT_ROWS + 4, k, i] = 0.0"""
+        lanes[SLIDES, k, i] = 0.0 if held else 1.0{roll_info}"""
 """The rolling pass of a step under the ``"sliding"`` and ``"coulomb"`` contacts (RK4 substeps), in
 ``contact_roll_share``: every disk rolls, and those marked (lanes row SLIDES) are left to :data:`CONTACT_HYBRID`.
 :data:`CHECKS_TEMPLATE` with the rolling model's fields (``{rolling_checks}``). Under ``"sliding"`` every disk is
@@ -666,23 +665,30 @@ CONTACT_HYBRID = """    period, substeps, coulomb = config[PERIOD], int(config[S
 {store_state}
 {store_angles}
 {hybrid_checks}
-        lanes[SLIDES, k, i] = contact[7]
-        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
-        info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
-        info[CONTACT_ROWS + 4, k, i] = contact[7]"""
+        lanes[SLIDES, k, i] = contact[7]{hybrid_info}"""
 """The hybrid pass of a step under the ``"sliding"`` and ``"coulomb"`` contacts, in ``contact_hybrid_share``: the disks
 that :data:`CONTACT_ROLL` marked go through the period again from its start, switching modes
 (:func:`rolling_disk_env.engine.advance_contact`); :data:`CHECKS_TEMPLATE` with the hybrid's fields
 (``{hybrid_checks}``)."""
+_ROLL_INFO = """
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = dc1, dc2
+        info[CONTACT_ROWS + 2, k, i] = info[CONTACT_ROWS + 3, k, i] = info[CONTACT_ROWS + 4, k, i] = 0.0"""
+_HYBRID_INFO = """
+        info[CONTACT_ROWS + 0, k, i], info[CONTACT_ROWS + 1, k, i] = state[5], state[6]
+        info[CONTACT_ROWS + 2, k, i], info[CONTACT_ROWS + 3, k, i] = contact[5], contact[6]
+        info[CONTACT_ROWS + 4, k, i] = contact[7]"""
+"""The rows ``engine.SLIDING_INFO`` of the info block, after the rolling pass and after the hybrid (the full info
+set's)."""
+
 
 STEP_TEMPLATE = """
 
 @kernel
-def step_{method}_share(k, actions, batch, setup, out):
-    \"\"\"One control period {described} of the disks of share k of the batch: the action's torques, then, in loops
-    over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts' modes), the
-    last (or only) substep, then each disk's outputs. The caller then starts a new episode in each disk of the mask
-    of its resets (:func:`{reset}`, while the share's rows are in cache).
+def step_{method}{set}_share(k, actions, batch, setup, out):
+    \"\"\"One control period {described}{described_set} of the disks of share k of the batch: the action's torques,
+    then, in loops over the disks (which the compiler vectorizes, but for dopri5's adaptive steps and the contacts'
+    modes), the last (or only) substep, then each disk's outputs. The caller then starts a new episode in each disk
+    of the mask of its resets (:func:`{reset}`, while the share's rows are in cache).
 
     ``batch``, ``setup`` and ``out`` are the arrays of :class:`~rolling_disk_env.engine.BatchArrays`,
     :class:`~rolling_disk_env.engine.SetupArrays` and :class:`~rolling_disk_env.engine.OutputArrays`, the first and
@@ -705,7 +711,7 @@ reset after it, through their addresses (:func:`rolling_disk_env.engine.step_ran
 CONTACT_STEP_TEMPLATE = """
 
 @share_kernel
-def contact_roll_share(k, actions, batch, setup, out):
+def contact_roll{set}_share(k, actions, batch, setup, out):
     \"\"\"The rolling pass of a control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of
     share k: the action's torques, then the substeps of the rolling model and each disk's checks at the end of the
     period, in loops over the disks that the compiler vectorizes; each disk marked (lanes row SLIDES) where it slides
@@ -719,7 +725,7 @@ def contact_roll_share(k, actions, batch, setup, out):
 
 
 @share_kernel
-def contact_hybrid_share(k, batch, setup, out):
+def contact_hybrid{set}_share(k, batch, setup, out):
     \"\"\"The hybrid pass of a control period under the "sliding" or "coulomb" contact: the disks of share k that
     :func:`contact_roll_share` marked go through the period again from its start, one by one, switching modes
     (``engine.advance_contact``). A disk that rolls on gets the same arithmetic either way.\"\"\"
@@ -729,7 +735,7 @@ def contact_hybrid_share(k, batch, setup, out):
 
 
 @share_kernel
-def contact_outputs_share(k, batch, setup, out):
+def contact_outputs{set}_share(k, batch, setup, out):
     \"\"\"The end of a control period under the "sliding" or "coulomb" contact, once both passes are done: each disk's
     reward terms, observation and flags.\"\"\"
     {unpack}
@@ -739,14 +745,14 @@ def contact_outputs_share(k, batch, setup, out):
 
 
 @kernel
-def step_contact_share(k, actions, batch, setup, out):
+def step_contact{set}_share(k, actions, batch, setup, out):
     \"\"\"One control period under the "sliding" or "coulomb" contact (RK4 steps) of the disks of share k of the batch:
     its rolling pass (:func:`contact_roll_share`), its hybrid pass (:func:`contact_hybrid_share`) and its outputs
     (:func:`contact_outputs_share`); the caller then starts the new episodes (:func:`reset_contact_share`). A GPU runs
     the passes as two kernels, so that the disks that slide run the hybrid together (``_generated/cuda.py``).\"\"\"
-    contact_roll_share(k, actions, batch, setup, out)
-    contact_hybrid_share(k, batch, setup, out)
-    contact_outputs_share(k, batch, setup, out)
+    contact_roll{set}_share(k, actions, batch, setup, out)
+    contact_hybrid{set}_share(k, batch, setup, out)
+    contact_outputs{set}_share(k, batch, setup, out)
 """
 """The step of one task under the ``"sliding"`` and ``"coulomb"`` contacts, for a share of a batch of disks, in its
 three passes: numba copies each into the step (``share_kernel``), which compiles them once; a CUDA kernel calls them
@@ -940,7 +946,6 @@ def generate_steps(task) -> str:
     outputs = _fill(
         OUTPUTS_LOOP,
         {
-            "{terms}": _stores("info", [f"TERMS + {j}" for j in range(terms)], _items("terms", terms), 8, "k, i"),
             "{reward}": " + ".join(f"weights[{j}] * terms[{j}]" for j in range(terms)),
             "{observe}": "\n".join(
                 f"        info[OBSERVATION + {j}, k, i] = min(max(observation[{j}], -bounds[{j}]), bounds[{j}])"
@@ -967,19 +972,37 @@ def generate_steps(task) -> str:
     rolling_velocity = "engine.centre_velocity(x, trig, m, g, r)"
     contact_velocity = "(lanes[CENTRE_VELOCITY, k, i], lanes[CENTRE_VELOCITY + 1, k, i])"
     track = "\n    decay, bound = config[SUCCESS_DECAY], config[SUCCESS_BOUND]" if rule == "track" else ""
+    sets = {
+        "full": {
+            "{set}": "",
+            "{terms}": _stores("info", [f"TERMS + {j}" for j in range(terms)], _items("terms", terms), 8, "k, i"),
+            "{roll_info}": _ROLL_INFO,
+            "{hybrid_info}": _HYBRID_INFO,
+            "{described_set}": "",
+        },
+        "training": {
+            "{set}": set_suffix("training"),
+            "{terms}": "",
+            "{report}": "        codes[k, i] = code",
+            "{roll_info}": "",
+            "{hybrid_info}": "",
+            "{described_set}": ", writing the training set of outputs (no state, contact or reward-term rows)",
+        },
+    }
     steps = []
     families = contact_families(task)
-    for t in TABLEAUS if "rolling" in families else ():
-        integrate = _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks)
-        template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
-        template = template.replace("{velocity}", rolling_velocity).replace("{track}", track)
-        method = {
-            "{method}": t.name,
-            "{described}": f"with {t.name}",
-            "{reset}": _RESETS["rolling"][0],
-            "{restore}": "" if t.error else _RESTORE,
-        }
-        steps.append(_fill(template, {**step_fields, **method}))
+    for info_keys in INFO_SETS:
+        for t in TABLEAUS if "rolling" in families else ():
+            integrate = _ADVANCE["dopri5" if t.error else "fixed"] + HANDOVER + _fill(CHECKS_TEMPLATE, rolling_checks)
+            template = STEP_TEMPLATE.replace("{integrate}", integrate).replace("{outputs}", outputs)
+            template = template.replace("{velocity}", rolling_velocity).replace("{track}", track)
+            method = {
+                "{method}": t.name,
+                "{described}": f"with {t.name}",
+                "{reset}": _RESETS["rolling"][0],
+                "{restore}": "" if t.error else _RESTORE,
+            }
+            steps.append(_fill(template, {**step_fields, **method, **sets[info_keys]}))
     contact = _fill(
         CONTACT_STEP_TEMPLATE,
         {
@@ -990,7 +1013,9 @@ def generate_steps(task) -> str:
     )
     contact = contact.replace("{velocity}", contact_velocity).replace("{track}", track)
     if "contact" in families:
-        steps.append(_fill(contact, {**step_fields, "{method}": "contact", "{reset}": _RESETS["contact"][0]}))
+        for info_keys in INFO_SETS:
+            contact_fields = {**step_fields, "{method}": "contact", "{reset}": _RESETS["contact"][0]}
+            steps.append(_fill(contact, {**contact_fields, **sets[info_keys]}))
     header = _HEADER.format(
         title=f"The fused steps of task {task.name!r}: a batch of disks through a control period.",
         source=f"``{module.__name__.replace('.', '/')}.py`` or the templates in\n``rolling_disk_env/codegen.py``",
@@ -1111,13 +1136,13 @@ from rolling_disk_env.engine import SLIDES
 '''
 CUDA_STEP = '''
 
-def {task}_step_{method}(arguments):
-    """One control period of disk k of task {task!r} (``{task}.step_{method}_share``), its autoreset decided on the
-    device."""
+def {task}_step_{method}{set}(arguments):
+    """One control period of disk k of task {task!r} (``{task}.step_{method}{set}_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        {task}.step_{method}_share(np.int64(k), actions, batch, setup, out)
+        {task}.step_{method}{set}_share(np.int64(k), actions, batch, setup, out)
         {task}.reset_share(np.int64(k), resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             {task}.reset_share(np.int64(k), resets, batch, setup, out)
@@ -1126,36 +1151,37 @@ def {task}_step_{method}(arguments):
 mask holds the disk), then the same-step one."""
 CUDA_CONTACT_STEP = '''
 
-def {task}_step_contact(arguments):
+def {task}_step_contact{set}(arguments):
     """The rolling pass of a control period of disk k of task {task!r} under the "sliding" or "coulomb" contact
-    (``{task}.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`{task}_step_contact_hybrid`, the others end their step here."""
+    (``{task}.contact_roll{set}_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`{task}_step_contact_hybrid{set}`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
-        {task}.contact_roll_share(np.int64(k), actions, batch, setup, out)
+        {task}.contact_roll{set}_share(np.int64(k), actions, batch, setup, out)
         if batch[0][SLIDES, k, 0] != 0.0:
             queue = control[8]
             queue[1 + cuda.atomic.add(queue, 0, 1)] = k
         else:
-            {task}.contact_outputs_share(np.int64(k), batch, setup, out)
+            {task}.contact_outputs{set}_share(np.int64(k), batch, setup, out)
             {task}.reset_contact_share(np.int64(k), resets, batch, setup, out)
             if engine.device_step_ended(k, out, batch[0], control, resets[0]):
                 {task}.reset_contact_share(np.int64(k), resets, batch, setup, out)
 
 
-def {task}_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task {task!r} that :func:`{task}_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``{task}.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+def {task}_step_contact_hybrid{set}(arguments):
+    """The hybrid pass of the disks of task {task!r} that :func:`{task}_step_contact{set}` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``{task}.contact_hybrid{set}_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
     if j < queue[0]:
         k = queue[1 + j]
-        {task}.contact_hybrid_share(k, batch, setup, out)
-        {task}.contact_outputs_share(k, batch, setup, out)
+        {task}.contact_hybrid{set}_share(k, batch, setup, out)
+        {task}.contact_outputs{set}_share(k, batch, setup, out)
         {task}.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             {task}.reset_contact_share(k, resets, batch, setup, out)
@@ -1202,11 +1228,10 @@ def generate_cuda(tasks) -> str:
         for name, reset in CUDA_RESETS.items():
             if ("rolling" if name == "reset" else "contact") in families:
                 source += CUDA_RESET.format(task=task, name=name, reset=reset)
-        for method in cuda_methods(tasks[task]):
-            if method == "contact":
-                source += CUDA_CONTACT_STEP.format(task=task)
-            else:
-                source += CUDA_STEP.format(task=task, method=method)
+        for info_keys in INFO_SETS:
+            for method in cuda_methods(tasks[task]):
+                template = CUDA_CONTACT_STEP if method == "contact" else CUDA_STEP
+                source += template.format(task=task, method=method, set=set_suffix(info_keys))
     return source
 
 
@@ -1232,9 +1257,10 @@ def generated_files(write: bool = False) -> dict[str, str]:
     add("sliding.py", generate_sliding())
     from rolling_disk_env.tasks import TASKS
 
-    for name, task in TASKS.items():
+    own = {name: task for name, task in TASKS.items() if not task.steps_of}  # the others run these' steps
+    for name, task in own.items():
         add(f"{name}.py", generate_steps(task))
-    add("cuda.py", generate_cuda(TASKS))
+    add("cuda.py", generate_cuda(own))
     return files
 
 

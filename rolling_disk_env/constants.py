@@ -20,6 +20,19 @@ ENGINE_METHODS = ("euler", "symplectic_euler", "rk4", "dopri5")
 """The methods the compiled engine integrates (their index is the engine's code for them): fixed steps, then the
 error-controlled Dormand-Prince 5(4)."""
 
+INFO_SETS = ("full", "training")
+"""What a batch's step writes beside the observations, rewards and flags (``info_keys`` of the vector envs): every row
+of the info block (``"full"``: the state, energy, contact forces, normal force, required friction and reward terms),
+or only the termination codes (``"training"``: what autoreset, ``final_obs`` and ``final_info``, the success rate and
+the trainers read). Each is a variant of every generated step function (:func:`set_suffix`): a step asked for less
+compiles less and writes less."""
+
+
+def set_suffix(info_keys: str) -> str:
+    """The suffix of a generated step function's name for an info set of :data:`INFO_SETS`: none for ``"full"``."""
+    return "" if info_keys == "full" else f"_{info_keys}"
+
+
 ZERO_SLIP = 1e-12
 """A slip speed below ``ZERO_SLIP * sqrt(g r)`` counts as zero: the round-off of a rolling state's slip."""
 EVENT_TIME_TOLERANCE = 1e-13

@@ -22,17 +22,20 @@ from the CPU's in the last bits (within 1e-12 relative over 200 steps); ``math.s
 
 from __future__ import annotations
 
+import collections
 import functools
 import importlib.util
 import logging
 import math
 import time
+import warnings
 
 import numba
 import numpy as np
 import torch
 
 from rolling_disk_env import engine, pcg64
+from rolling_disk_env.constants import set_suffix
 from rolling_disk_env.envs.batch import GIVEN_SIZE, DiskBatch, Outputs, given_states
 from rolling_disk_env.envs.config import EnvConfig
 from rolling_disk_env.jit import _PackageStamp
@@ -49,7 +52,12 @@ log = logging.getLogger(__name__)
 SIMULATED = bool(numba.config.ENABLE_CUDASIM)
 """Whether numba-cuda's simulator runs the kernels (``NUMBA_ENABLE_CUDASIM=1``): on the CPU, with host memory."""
 THREADS_PER_BLOCK = 128
-"""Threads of a block: a disk each."""
+"""Threads of a block at most: a disk each."""
+WARP = 32
+"""Threads of a warp: the fewest a block has (but for a batch of fewer disks)."""
+FULL_GRID = 128
+"""Blocks that numba-cuda takes as enough to use a GPU (fewer: its ``NumbaPerformanceWarning``, "Grid size ... will
+likely result in GPU under-utilization")."""
 
 
 class _UserProvidedLocator(_PackageStamp, cuda_caching._UserProvidedCacheLocator):
@@ -153,8 +161,10 @@ def _jit(function):
 
 
 def _blocks(disks: int) -> tuple[int, int]:
-    """Blocks and threads of a launch over ``disks`` threads."""
-    threads = min(disks, THREADS_PER_BLOCK)
+    """Blocks and threads of a launch over ``disks`` threads: blocks of :data:`THREADS_PER_BLOCK`, smaller (down to a
+    warp) where that many would make fewer than :data:`FULL_GRID` blocks, so that a batch of 4,096 disks (``train.py
+    --device cuda``'s) runs in 128 blocks of 32 instead of 32 of 128, spread over more of the GPU's multiprocessors."""
+    threads = min(disks, max(WARP, min(THREADS_PER_BLOCK, WARP * (disks // (FULL_GRID * WARP)))))
     return math.ceil(disks / threads), threads
 
 
@@ -166,11 +176,15 @@ def launch(function, disks: int, *arguments) -> None:
 
 
 def _numba_launch(function, blocks: int, threads: int, arguments: tuple) -> None:
-    """numba-cuda's launch of ``function`` on torch's current stream."""
-    if SIMULATED:
-        function[blocks, threads](*arguments)
-    else:
-        function[blocks, threads, _stream()](*arguments)
+    """numba-cuda's launch of ``function`` on torch's current stream. A batch of fewer than 4,096 disks cannot fill
+    :data:`FULL_GRID` blocks of a warp: numba-cuda's warning that says so is filtered here, where it is raised (the
+    batch's size is the user's choice, and a small one is meant for few disks, not for a full GPU)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"Grid size \d+ will likely result in GPU under-utilization")
+        if SIMULATED:
+            function[blocks, threads](*arguments)
+        else:
+            function[blocks, threads, _stream()](*arguments)
 
 
 class Launch:
@@ -236,16 +250,21 @@ class Launch:
 
 def _check(actions, ended, disabled, status, queue):
     """Disk k's part of the check before a step (:attr:`DeviceBatch.status`): ``status[0]`` becomes the first disk
-    whose action (a row of ``actions``) is not finite, and where ``disabled`` (DISABLED autoreset) ``status[1]`` the
-    first disk that has ended; both hold N before (none). Thread 0 empties the hybrid's ``queue`` (its count,
+    whose action (a row of ``actions``) is not finite and ``status[2]`` counts those disks, and where ``disabled``
+    (DISABLED autoreset) ``status[1]`` becomes the first disk that has ended; they hold N, N and 0 until a step finds
+    one (then they stay, and no later step steps a disk, until the host reads them:
+    :meth:`DeviceBatch.raise_pending`). Thread 0 empties the hybrid's ``queue`` (its count,
     :class:`~rolling_disk_env.engine.DeviceControl`) for the step that follows."""
     k = cuda.grid(1)
     if k == 0:
         queue[0] = 0
     if k < actions.shape[0]:
+        finite = True
         for j in range(actions.shape[1]):
-            if not math.isfinite(actions[k, j]):
-                cuda.atomic.min(status, 0, k)
+            finite = finite and math.isfinite(actions[k, j])
+        if not finite:
+            cuda.atomic.min(status, 0, k)
+            cuda.atomic.add(status, 2, 1)
         if disabled and ended[k]:
             cuda.atomic.min(status, 1, k)
 
@@ -260,13 +279,56 @@ def _seed(arguments):
         pcg64.seed_state(seed_high, seed_low, np.uint64(k), rngs[k])
 
 
+def wait_for(event) -> None:
+    """Waits for the device to pass ``event``: the one place where a :class:`DeviceBatch` waits for the device, which
+    its :meth:`~DeviceBatch.step` does only when :data:`PENDING_STEPS` steps are unread (a reset waits for them all)."""
+    event.synchronize()
+
+
+PENDING_STEPS = 64
+"""Steps whose status word the host may leave unread: past it, a step waits for the oldest (the host would otherwise
+run that far ahead of the device)."""
+
+
+class DeviceStepError(ValueError):
+    """A step of a :class:`DeviceBatch` found a non-finite action, or under DISABLED an ended disk: it stepped no disk,
+    nor did the steps after it until this was raised (:meth:`DeviceBatch.raise_pending`); their outputs are
+    meaningless.
+
+    Attributes:
+        step: the step's number (:attr:`DeviceBatch.steps_taken` after it).
+        first: the first disk with a non-finite action (N: none).
+        count: the disks with a non-finite action.
+        ended: the first disk that had ended, under DISABLED (N: none).
+    """
+
+    def __init__(self, step: int, first: int, count: int, ended: int, batch: DeviceBatch):
+        self.step, self.first, self.count, self.ended = step, first, count, ended
+        n = batch.num_envs
+        if first < n:
+            message = (
+                f"actions must be finite numbers: step {step} got a non-finite action for {count} sub-environment(s), "
+                f"the first {first}; no sub-environment has been stepped since (the outputs of the steps after it are "
+                "meaningless)"
+            )
+        else:
+            disks = torch.nonzero(batch.ended).flatten().tolist()
+            message = (
+                f"sub-environments {disks} have ended and autoreset is disabled: reset them with "
+                f'reset(options={{"reset_mask": mask}}) first (step {step} stepped none, nor have the steps since)'
+            )
+        super().__init__(message)
+
+
 class DeviceBatch(DiskBatch):
     """A :class:`~rolling_disk_env.envs.batch.DiskBatch` on the GPU: N shares of one disk, in device memory, stepped
     and reset by its task's CUDA kernels, a thread a disk, with the autoreset decided on the device.
 
     A step is a copy of the actions into the batch's buffer, two launches (the check of the actions, then the step,
-    which writes every output the env hands out, the same-step resets included) and one copy of the outputs that must
-    be fresh; the host then reads one status word (:meth:`step`). Under the ``"sliding"`` and ``"coulomb"`` contacts
+    which writes every output the env hands out, the same-step resets included), one copy of the outputs that must
+    be fresh, and an asynchronous copy of the check's status word into pinned host memory, which a later
+    :meth:`step` reads once the device has done it: the host never waits for the device (:meth:`step`,
+    :meth:`raise_pending`). Under the ``"sliding"`` and ``"coulomb"`` contacts
     the step is two kernels: every disk's rolling pass, which queues the disks that need the hybrid, then the hybrid
     pass of the queued disks only, a thread each, so that a disk that slides holds up no warp of rolling disks. Its
     buffers are made once, and the kernels' parameters resolved once (:class:`Launch`): nothing else crosses between
@@ -289,21 +351,29 @@ class DeviceBatch(DiskBatch):
         ended: (N,) bool, the disks whose episode ended at their latest step (NEXT_STEP and DISABLED).
         steps_tensor: (N,) int64, each disk's steps in its episode (it truncates at ``max_episode_steps``);
             writable.
-        status: (2,) int64, the check's word (:class:`~rolling_disk_env.engine.DeviceControl`).
+        status: (3,) int64, the check's word (:class:`~rolling_disk_env.engine.DeviceControl`; :func:`_check`).
+        steps_taken: :meth:`step` calls since the batch was made (the number an error names its step by).
         queue: (N + 1,) int64, the disks of the latest step's hybrid pass, after their count
             (:class:`~rolling_disk_env.engine.DeviceControl`; ``"sliding"`` and ``"coulomb"`` contacts).
     Not picklable.
     """
 
-    def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None, mode: int = engine.NEXT_STEP):
+    def __init__(
+        self,
+        config: EnvConfig,
+        num_envs: int,
+        max_episode_steps: int | None,
+        mode: int = engine.NEXT_STEP,
+        info_keys: str = "training",
+    ):
         require_device()
-        super().__init__(config, num_envs, max_episode_steps)
+        super().__init__(config, num_envs, max_episode_steps, info_keys)
         self.choice = None
         self.device = torch_device()
         n, size = num_envs, self.observation_size
-        rolling, task = config.contact == "rolling", config.task.name
-        step = kernel(task, f"step_{config.integrator}" if rolling else "step_contact")
-        hybrid = None if rolling else kernel(task, "step_contact_hybrid")
+        rolling, task, suffix = config.contact == "rolling", config.task.steps_name, set_suffix(info_keys)
+        step = kernel(task, f"step_{config.integrator}{suffix}" if rolling else f"step_contact{suffix}")
+        hybrid = None if rolling else kernel(task, f"step_contact_hybrid{suffix}")
         self._kernels = (step, kernel(task, "reset" if rolling else "reset_contact"), _jit(_check), hybrid)
         self.mode = mode
         # What a step hands out fresh, in one float32 block (one copy): the observations and rewards, then terminated
@@ -318,7 +388,7 @@ class DeviceBatch(DiskBatch):
         self.final_mask = torch.zeros(n, dtype=torch.bool, device=self.device)
         self.final_disk = torch.zeros((engine.DISK_CONSTANTS, n), dtype=torch.float64, device=self.device)
         self.ended = torch.zeros(n, dtype=torch.bool, device=self.device)
-        self.status = torch.full((2,), n, dtype=torch.int64, device=self.device)
+        self.status = torch.tensor([n, n, 0], dtype=torch.int64, device=self.device)
         self.queue = torch.zeros(n + 1, dtype=torch.int64, device=self.device)
         self.actions = torch.zeros((n, config.action_space.shape[0]), dtype=torch.float32, device=self.device)
         self.mask = torch.zeros(n, dtype=torch.bool, device=self.device)
@@ -327,12 +397,12 @@ class DeviceBatch(DiskBatch):
         self.rngs = to_device(np.zeros((n, 4), dtype=np.uint64))
         """The disks' PCG64 states (:mod:`rolling_disk_env.pcg64`) in device memory, advanced by the resets."""
         self._uniforms = to_device(self.uniforms)
-        if SIMULATED:
-            self._status_host = self.status
-        else:
-            self._status_host = torch.empty(2, dtype=torch.int64, pin_memory=True)
-            self._read = torch.cuda.Event()
-        self._status_word = self._status_host.numpy()
+        self.steps_taken = 0
+        # The status words of the steps the host has not read yet: (step number, host buffer, event), oldest first,
+        # in a ring of pinned buffers.
+        self._pending: collections.deque = collections.deque()
+        self._words = [torch.empty(3, dtype=torch.int64, pin_memory=not SIMULATED) for _ in range(PENDING_STEPS)]
+        self._word_arrays = [word.numpy() for word in self._words]  # read on the host without a torch call
 
     def _fresh_views(self, block: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """The observations (N, size) float32, rewards (N,) float32, terminated and truncated (N,) bool of a block of
@@ -439,7 +509,9 @@ class DeviceBatch(DiskBatch):
         :attr:`rngs` (first seeded on the device where ``seed`` is given: disk k's state that of ``seed + k``, a
         non-negative int with ``seed + N`` below :data:`~rolling_disk_env.pcg64.SEED_LIMIT`), or from the host's
         ``states`` ((N, 8), or (N, 10) under the ``"sliding"`` and ``"coulomb"`` contacts; rows of NaN: drawn), writing
-        into :attr:`out`; those disks have not ended."""
+        into :attr:`out`; those disks have not ended. First raises the error of an earlier step (:meth:`raise_pending`,
+        waiting for the device)."""
+        self.raise_pending(wait=True)
         if mask is None:
             self.mask.fill_(True)
         else:
@@ -455,16 +527,19 @@ class DeviceBatch(DiskBatch):
         self._prepared()[1]()
         self.ended.logical_and_(self.mask.logical_not())
 
-    def step(self, actions: torch.Tensor) -> tuple[tuple[torch.Tensor, ...], int, int]:
+    def step(self, actions: torch.Tensor) -> tuple[torch.Tensor, ...]:
         """Steps every disk under ``actions`` ((N, A) on the device; clipped to [-1, 1] by the kernel), with the
-        autoreset of :attr:`mode`, unless an action is not finite or, under DISABLED, a disk has ended: then nothing
-        is stepped.
+        autoreset of :attr:`mode`, unless an action of this step or of an earlier one was not finite or, under
+        DISABLED, a disk had ended: then nothing is stepped, and :meth:`raise_pending` raises at the first call after
+        the device has done that step (the next :meth:`step`, or :meth:`reset`). Nothing here waits for the device:
+        first the status words of earlier steps that the device has copied are read (:meth:`raise_pending`), then
+        this step's launches and the copy of its status word are queued.
 
         Returns:
             The fresh copies of the observations (N, size) and rewards (N,) float32 and of the flags terminated and
-            truncated (N,) bool; the first disk whose action is not finite, and the first disk that had ended under
-            DISABLED (-1: none; where either is not, nothing was stepped and the returned tensors are meaningless).
+            truncated (N,) bool (meaningless from a step that stepped nothing on).
         """
+        self.raise_pending()
         step, _, check, hybrid = self._prepared()
         self.actions.copy_(actions)
         check()
@@ -472,19 +547,37 @@ class DeviceBatch(DiskBatch):
         if hybrid is not None:
             hybrid()
         fresh = self._fresh_views(self._fresh.clone())
-        bad, ended = self._read_status()
-        n = self.num_envs
-        if bad < n or ended < n:
-            self.status.fill_(n)
-        return fresh, bad if bad < n else -1, ended if ended < n else -1
+        self.steps_taken += 1
+        if len(self._pending) == PENDING_STEPS:  # the host is that many steps ahead of the device: wait for one
+            self.raise_pending(oldest=True)
+        slot = self.steps_taken % PENDING_STEPS
+        self._words[slot].copy_(self.status, non_blocking=not SIMULATED)
+        event = None if SIMULATED else torch.cuda.Event()
+        if event is not None:
+            event.record()
+        self._pending.append((self.steps_taken, self._word_arrays[slot], event))
+        return fresh
 
-    def _read_status(self) -> tuple[int, int]:
-        """The status word once the step is done: the one read from the device a step makes."""
-        if not SIMULATED:
-            self._status_host.copy_(self.status, non_blocking=True)
-            self._read.record()
-            self._read.synchronize()
-        return int(self._status_word[0]), int(self._status_word[1])
+    def raise_pending(self, wait: bool = False, oldest: bool = False) -> None:
+        """Reads the status words of the earlier steps the device has done (all of them with ``wait``, or the oldest
+        with ``oldest``: waiting for the device; else those it has copied, without waiting), oldest first; raises
+        :class:`DeviceStepError` for the first that found a non-finite action (or, under DISABLED, an ended disk),
+        naming the step and the disks, and clears the status for the steps after the error is handled (no disk was
+        stepped from that step on)."""
+        while self._pending:
+            number, word, event = self._pending[0]
+            if event is not None:
+                if wait or oldest:
+                    wait_for(event)
+                elif not event.query():
+                    return
+            self._pending.popleft()
+            oldest = False
+            bad, ended, count = int(word[0]), int(word[1]), int(word[2])
+            if bad < self.num_envs or ended < self.num_envs:
+                self._pending.clear()
+                self.status.copy_(torch.tensor([self.num_envs, self.num_envs, 0]))
+                raise DeviceStepError(number, bad, count, ended, self)
 
     def seed(self, words: np.ndarray, mask: np.ndarray) -> None:
         """Sets the PCG64 states of the disks of ``mask`` ((N,) bool) to those rows of ``words`` ((N, 4) uint64),

@@ -52,18 +52,21 @@ def test_off_policy_algorithms_train_from_their_configs(tmp_path, algo):
     assert np.isfinite(evaluate(load_agent(tmp_path / "model.zip"), algo, episodes=2).returns).all()
 
 
-def test_a_torchscript_policy_loads_and_acts(tmp_path):
-    """``agents.evaluate --model policy.pt`` (``train.py --device``'s export): a TorchScript module of observations to
-    actions, run on the CPU."""
+def test_an_exported_policy_loads_and_acts(tmp_path):
+    """``agents.evaluate --model policy.pt2`` (``train.py --device``'s export): ``torch.export``'s program of a batch
+    of observations to a batch of actions, run on the CPU, for one observation too (the single env's episode)."""
     import torch
 
-    from agents.evaluate import TorchScriptPolicy, load_agent
+    from agents.evaluate import ExportedPolicy, load_agent
 
     module = torch.nn.Linear(4, 2)
     torch.nn.init.constant_(module.weight, 0.5)
     torch.nn.init.constant_(module.bias, -1.0)
-    torch.jit.script(module).save(str(tmp_path / "policy.pt"))
-    agent = load_agent(tmp_path / "policy.pt")
-    assert isinstance(agent, TorchScriptPolicy)
+    batch = torch.export.Dim("batch")
+    program = torch.export.export(module, (torch.zeros(2, 4),), dynamic_shapes=({0: batch},))
+    torch.export.save(program, tmp_path / "policy.pt2")
+    agent = load_agent(tmp_path / "policy.pt2")
+    assert isinstance(agent, ExportedPolicy)
+    np.testing.assert_allclose(agent.predict(np.ones((1, 4), dtype=np.float32))[0], np.full((1, 2), 1.0))
     actions, _ = agent.predict(np.ones((3, 4), dtype=np.float32))
     np.testing.assert_allclose(actions, np.full((3, 2), 1.0))  # 4 * 0.5 - 1

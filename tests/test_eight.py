@@ -70,7 +70,7 @@ def test_one_whole_eight_passes_the_gates_in_the_order_of_the_geometry():
     agent = EightLQR(task="eight")
     observation, info = env.reset(seed=2)
     goal = env.unwrapped.goal
-    centre_a, centre_b, radius = lobes(goal)
+    centre_a, centre_b, _ = lobes(goal)
     start_gate = goal["gate"]
     track, passed = [info["state"][:2]], [0.0]
     terminated = truncated = False

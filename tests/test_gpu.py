@@ -64,17 +64,39 @@ def test_seeds_states_and_partial_resets_as_the_cpu_env():
     np.testing.assert_allclose(got[1]["state"].cpu().numpy()[mask], want[1]["state"][mask], rtol=0.0, atol=10 * RTOL)
 
 
-def test_non_finite_actions_raise_and_step_nothing():
+def test_a_non_finite_action_steps_nothing_from_its_step_on_and_the_next_call_raises_naming_it():
+    """The device step never waits: the step with the bad action returns (its outputs meaningless), steps no disk, nor
+    does any step after it until the next step() (or reset()) raises, naming the step and the disks; every disk is
+    where it was. Then the env steps again."""
     envs = make(4, device="cuda")
     observations, _ = envs.reset(seed=0)
-    actions = torch.zeros((4, 2), device=observations.device)
-    actions[2, 1] = float("inf")
+    good = torch.zeros((4, 2), device=observations.device)
+    envs.step(good)
     before = envs.unwrapped._batch.states.copy()
-    with pytest.raises(ValueError, match=r"finite numbers.*sub-environment 2"):
-        envs.step(actions)
-    np.testing.assert_array_equal(envs.unwrapped._batch.states, before)  # nothing stepped
-    assert envs.step(torch.zeros_like(actions))[4]["_state"].cpu().tolist() == [True] * 4
+    bad = good.clone()
+    bad[2, 1], bad[3, 0] = float("inf"), float("nan")
+    envs.step(bad)  # step 2: queued, not waited for
+    with pytest.raises(ValueError, match=r"step 2 got a non-finite action for 2 sub-environment\(s\), the first 2"):
+        envs.step(good)
+    np.testing.assert_array_equal(envs.unwrapped._batch.states, before)  # nothing stepped since step 1
+    envs.step(bad)
+    with pytest.raises(ValueError, match=r"step 3 got a non-finite action"):
+        envs.reset(seed=1)  # a reset raises it too
+    envs.reset(seed=1)
+    envs.step(good)
     assert not np.array_equal(envs.unwrapped._batch.states, before)
+
+
+def test_under_disabled_autoreset_stepping_an_ended_disk_raises_at_the_next_call():
+    envs = make(4, AutoresetMode.DISABLED, "cuda", task="upright", initial_ranges={"theta": (0.45, 0.45)})
+    observations, _ = envs.reset(seed=0)
+    actions = torch.zeros((4, 2), device=observations.device)
+    steps = 0
+    while not bool(envs.step(actions)[2].any()):
+        steps += 1
+    envs.step(actions)  # steps an ended disk: nothing is stepped
+    with pytest.raises(ValueError, match=rf"have ended and autoreset is disabled.*step {steps + 2} stepped none"):
+        envs.step(actions)
 
 
 def test_a_partial_reset_after_steps_in_inference_mode():
@@ -173,7 +195,7 @@ def test_the_hybrid_pass_takes_exactly_the_disks_the_rolling_pass_marked():
 class _Crossings:
     """Counts, while on, the package's crossings between host and device and the reads that synchronize."""
 
-    ENTRIES = ("to_device", "to_host", "launch")
+    ENTRIES = ("to_device", "to_host", "launch", "wait_for")
     READS = ("__bool__", "item", "cpu", "tolist", "numpy")
 
     def __init__(self, monkeypatch):
@@ -199,9 +221,9 @@ class _Crossings:
 @pytest.mark.parametrize("contact", ["rolling", "coulomb"])
 def test_a_step_crosses_nothing_but_its_launches(monkeypatch, contact, mode):
     """A step on the device: the check and the step (under Coulomb: its rolling and hybrid passes) launched through
-    their prepared launches, no copy to or from the device through the package, no read of a tensor on the host (the
-    status word is read from pinned memory); a reset by a mask on the device likewise launches once and copies
-    nothing."""
+    their prepared launches, no copy to or from the device through the package, no read of a tensor on the host, no
+    wait for the device (the status word is copied asynchronously, read later from pinned memory); a reset by a
+    mask on the device likewise launches once and copies nothing."""
     envs = make(16, mode, "cuda", task="goto", **CONTACTS[contact])
     observations, _ = envs.reset(seed=0)
     actions = torch.zeros((16, 2), device=observations.device)
@@ -217,30 +239,18 @@ def test_a_step_crosses_nothing_but_its_launches(monkeypatch, contact, mode):
 
 
 @pytest.mark.skipif(SIMULATED, reason="needs a real GPU: the simulator does not synchronize")
-def test_a_step_synchronizes_only_to_read_its_status(monkeypatch):
-    """Under torch's sync debug mode "error", every synchronizing torch call but the one read of the status word
-    raises."""
-    from rolling_disk_env import gpu
-
-    envs = make(1024, device="cuda", task="circle")
+@pytest.mark.parametrize("info_keys", ["training", "full"])
+def test_a_step_synchronizes_nothing(info_keys):
+    """Under torch's sync debug mode "error", every synchronizing torch call raises: none in five steps (actions on
+    the device, float32)."""
+    envs = make(1024, device="cuda", task="circle", info_keys=info_keys)
     observations, _ = envs.reset(seed=0)
     actions = torch.zeros((1024, 2), device=observations.device)
     envs.step(actions)
-    read = gpu.DeviceBatch._read_status
-
-    def allowed(batch):
-        torch.cuda.set_sync_debug_mode("default")
-        try:
-            return read(batch)
-        finally:
-            torch.cuda.set_sync_debug_mode("error")
-
-    monkeypatch.setattr(gpu.DeviceBatch, "_read_status", allowed)
     torch.cuda.set_sync_debug_mode("error")
     try:
         for _ in range(5):
             envs.step(actions)
-        envs.reset(options={"reset_mask": torch.arange(1024, device=observations.device) % 2 == 0})
     finally:
         torch.cuda.set_sync_debug_mode("default")
 
@@ -263,3 +273,25 @@ def test_rsl_rl_env_moves_the_disks_within_their_episodes_and_logs_successes_on_
     assert ended[1].tolist() == [True] + [False] * 7 and ended[2].tolist() == [False, True] + [False] * 6
     assert float(extras["log"]["/success_rate"]) == 1.0  # upright: the two truncated episodes had not fallen
     assert env.episode_length_buf.tolist() == [2, 1, 4, 4, 4, 4, 4, 14]
+
+
+@pytest.mark.parametrize("contact", ["rolling", "coulomb"])
+def test_the_training_set_gives_the_cpus_outputs(contact):
+    """The device's training-set kernels (the default of the torch env): the observations, rewards, flags, success and
+    codes of the CPU's full step, from the same seed under the same actions."""
+    ours, theirs = (
+        make(32, device="cuda", task="goto", info_keys="training", **CONTACTS[contact]),
+        make(32, task="goto", **CONTACTS[contact]),
+    )
+    observations, info = ours.reset(seed=7)
+    theirs.reset(seed=7)
+    assert set(info) == {"is_success", "_is_success", "termination", "_termination"}
+    rng = np.random.default_rng(0)
+    for step in range(60):
+        actions = rng.uniform(-1.5, 1.5, (32, 2)).astype(np.float32)
+        got, want = ours.step(torch.from_numpy(actions).to(observations.device)), theirs.step(actions)
+        for index in range(4):
+            expected = want[index].astype(np.float32) if index == 1 else want[index]
+            _assert_close(got[index], expected, RTOL, f"step {step} output {index}")
+        for key in ("is_success", "termination"):
+            _assert_close(got[4][key], want[4][key], RTOL, f"step {step} {key}")

@@ -13,7 +13,7 @@ import pytest
 
 import rolling_disk_env as rd
 from rolling_disk_env import codegen
-from rolling_disk_env.constants import ENGINE_METHODS
+from rolling_disk_env.constants import ENGINE_METHODS, INFO_SETS, set_suffix
 from rolling_disk_env.envs.batch import DiskBatch
 from rolling_disk_env.envs.config import EnvConfig
 from tests.test_torch_env import make
@@ -46,22 +46,28 @@ def _arguments(config: EnvConfig, name: str, num_envs: int = 256) -> tuple:
         return resets, arrays, tuple(batch.setup), out
     actions = np.zeros((num_envs, config.action_space.shape[0]), np.float32)
     control = rd.engine.DeviceControl(
-        status=np.zeros(2, np.int64),
+        status=np.zeros(3, np.int64),
         ended=np.zeros(num_envs, bool),
         rewards=np.zeros(num_envs, np.float32),
         dones=np.zeros((2, num_envs), bool),
         final=batch.outputs().shares,
         final_mask=np.zeros(num_envs, bool),
+        final_disk=np.zeros((rd.engine.DISK_CONSTANTS, num_envs)),
         mode=rd.engine.SAME_STEP,
         queue=np.zeros(num_envs + 1, np.int64),
     )
     return actions, arrays, tuple(batch.setup), out, resets, tuple(control)
 
 
+STEPS = (*(f"step_{method}" for method in ENGINE_METHODS), "step_contact", "step_contact_hybrid")
+"""The step kernels of a task, each in a variant an info set."""
 KERNELS = [
     (task, name)
     for task in sorted(rd.TASK_IDS)
-    for name in (*codegen.CUDA_RESETS, *(f"step_{m}" for m in ENGINE_METHODS), "step_contact", "step_contact_hybrid")
+    for name in (
+        *codegen.CUDA_RESETS,
+        *(f"{step}{set_suffix(info_keys)}" for step in STEPS for info_keys in INFO_SETS),
+    )
     if hasattr(kernels, f"{task}_{name}")  # the contact families of each task (codegen.contact_families)
 ]
 

@@ -287,7 +287,9 @@ def test_randomized_disks_are_drawn_at_reset_and_step_as_the_engine_given_the_dr
         action = np.array([0.3, -0.5], np.float32)
         expected = reference.step(action)
         observation, _, reward, terminated, info = step(keys[i], state, jnp.asarray(action), params)
-        assert_step_agrees((observation, reward, terminated, info), (expected[0], expected[1], expected[2], expected[4]))
+        assert_step_agrees(
+            (observation, reward, terminated, info), (expected[0], expected[1], expected[2], expected[4])
+        )
         assert float(info["mass"]) == m and float(info["radius"]) == r
 
 

@@ -105,3 +105,23 @@ def test_bad_options_are_refused_with_their_message(options, message):
 def test_a_start_lean_range_past_the_fall_lean_is_refused():
     with pytest.raises(ValueError, match="'lean'"):
         make(initial_ranges={"lean": (0.5, 1.45)})
+
+
+def test_the_sparse_task_rewards_the_success_alone_with_recoverys_terms_and_steps():
+    dense, sparse = make(), gym.make(rd.TASK_IDS["recovery_sparse"])
+    (a, _), (b, _) = dense.reset(seed=5), sparse.reset(seed=5)
+    np.testing.assert_array_equal(a, b)
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        action = rng.uniform(-1, 1, 2).astype(np.float32)
+        a, _, end_a, _, info_a = dense.step(action)
+        b, reward_b, end_b, _, info_b = sparse.step(action)
+        np.testing.assert_array_equal(a, b)
+        assert end_a == end_b and np.array_equal(info_a["state"], info_b["state"])
+        assert all(info_a[f"reward_{term}"] == info_b[f"reward_{term}"] for term in RecoveryTask.default_reward_weights)
+        assert reward_b == info_b["reward_recovered"]
+        if end_a:
+            break
+    sparse.reset(seed=0, options={"state": [0, 0, 0, 0.0, 0, 2.0, 0.0, 0.0]})
+    rewards = [sparse.step(np.zeros(2, np.float32))[1] for _ in range(50)]
+    assert rewards == [0.0] * 49 + [1.0]

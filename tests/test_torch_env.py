@@ -16,8 +16,9 @@ STEPS, LIMIT = 200, 40
 
 
 def make(num_envs: int, mode=AutoresetMode.NEXT_STEP, device=None, **kwargs):
-    """The ids' vector env, numpy (``device`` None) or torch."""
-    extra = {} if device is None else {"device": device}
+    """The ids' vector env, numpy (``device`` None) or torch, with the numpy env's info keys (``info_keys="full"``)
+    unless told otherwise."""
+    extra = {} if device is None else {"device": device, "info_keys": kwargs.pop("info_keys", "full")}
     return gym.make_vec(
         rd.ENV_ID,
         num_envs=num_envs,

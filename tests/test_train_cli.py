@@ -30,10 +30,10 @@ HEAVY = {"numpy", "gymnasium", "numba", "torch", "stable_baselines3"}
 
 
 def run(*args: str, timeout: float = 120, **kwargs) -> tuple[subprocess.CompletedProcess, set[str]]:
-    """``python train.py *args``; returns the process (its stderr without the import log) and the modules it imported
-    (``python -X importtime`` writes a line to stderr for each)."""
+    """``python -W error train.py *args`` (every warning an error); returns the process (its stderr without the import
+    log) and the modules it imported (``python -X importtime`` writes a line to stderr for each)."""
     process = subprocess.run(
-        [sys.executable, "-X", "importtime", "train.py", *args],
+        [sys.executable, "-W", "error", "-X", "importtime", "train.py", *args],
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -132,10 +132,11 @@ def test_bad_hyperparameters_are_named_before_training(tmp_path, block, message)
     assert not (tmp_path / "run").exists()
 
 
-def test_a_run_prints_its_directory_and_every_evaluation(tmp_path):
+def test_a_run_prints_its_directory_and_every_evaluation_and_no_warning(tmp_path):
     out = tmp_path / "run"
     process, _ = run("--timesteps", "10000", "--eval-episodes", "2", "--out", str(out), "--verbose", "1")
-    assert process.returncode == 0, process.stderr
+    assert process.returncode == 0, process.stderr  # with every warning an error (run's -W error)
+    assert "Warning" not in process.stdout + process.stderr
     lines = process.stdout.strip().splitlines()
     assert lines[0] == f"run directory: {out}" and lines[-1] == f"run directory: {out}"
     # Off a terminal, each evaluation is a line (on a terminal, the progress bar's postfix shows it).
@@ -151,6 +152,26 @@ def test_a_run_prints_its_directory_and_every_evaluation(tmp_path):
     assert evaluate.normalization_file(out / "model.zip") == out / "vecnormalize.pkl"
     assert list((out / "tb").iterdir())
     assert "RollingDiskUpright-v0" in yaml.safe_load((out / "config.yml").read_text())
+
+
+def test_a_run_directory_that_holds_a_run_is_not_overwritten(tmp_path):
+    # Given with --out: refused at once, naming --out; the default one: numbered, as rl-baselines3-zoo's.
+    out = tmp_path / "run"
+    out.mkdir()
+    assert not train.holds_a_run(out)  # an empty folder is used
+    (out / "results.md").write_text("# a previous run\n")
+    process, modules = run("--out", str(out), timeout=20)
+    assert process.returncode == 2 and not modules & HEAVY
+    assert (
+        process.stderr.strip()
+        .splitlines()[-1]
+        .endswith(f"--out {out} holds a previous run (its results or a model): choose another --out")
+    )
+    assert train.new_run_directory(out) == tmp_path / "run_2"
+    (tmp_path / "run_2").mkdir()
+    (tmp_path / "run_2" / "model.zip").write_text("")
+    assert train.new_run_directory(out) == tmp_path / "run_3"
+    assert train.new_run_directory(tmp_path / "other") == tmp_path / "other"
 
 
 def test_ctrl_c_saves_evaluates_and_prints_the_run_directory(tmp_path):

@@ -47,7 +47,7 @@ def test_a_waypoint_passed_out_of_order_does_not_count():
     points = waypoints(env)
     for later in (1, 2, 3):  # on waypoint 1, 2 or 3 first: the next is still waypoint 0
         env.reset(seed=0, options={"state": at(points[later])})
-        _, reward, terminated, _, info = env.step(np.zeros(2, np.float32))
+        _, _, terminated, _, info = env.step(np.zeros(2, np.float32))
         assert env.unwrapped.goal["next"] == 0 and info["reward_waypoint"] == 0.0 and not terminated
 
 
@@ -59,11 +59,20 @@ def test_the_waypoints_count_in_order_and_the_last_ends_the_episode_as_a_success
     for j in range(4):
         # The disk put on waypoint j (its state written into the engine's lanes, the progress kept).
         batch.lanes[:8, 0] = at(points[j])
-        _, reward, terminated, _, info = env.step(np.zeros(2, np.float32))
+        _, _, terminated, _, info = env.step(np.zeros(2, np.float32))
         assert env.unwrapped.goal["next"] == j + 1 and info["reward_waypoint"] == 1.0
         assert terminated == (j == 3) and info["is_success"] == (j == 3)
         assert info["reward_reached"] == float(j == 3)
     assert info["termination"] == rd.Termination.REACHED
+
+
+def towards(x, forward, point):
+    """The distance (m) from the centre of the disk in state ``x`` to ``point``, the sine and cosine of its bearing
+    from the rolling direction ``forward``, and the unit vector towards it."""
+    offset = point - x[:2]
+    distance = np.hypot(*offset)
+    u = offset / distance
+    return distance, forward[0] * u[1] - forward[1] * u[0], forward @ u, u
 
 
 def test_the_observation_and_the_reward_terms_are_the_states():
@@ -73,23 +82,16 @@ def test_the_observation_and_the_reward_terms_are_the_states():
     rng = np.random.default_rng(0)
     for _ in range(150):
         previous = env.unwrapped.goal["next"]
-        observation, reward, terminated, truncated, info = env.step(rng.uniform(-0.3, 0.3, 2).astype(np.float32))
+        observation, _, terminated, truncated, info = env.step(rng.uniform(-0.3, 0.3, 2).astype(np.float32))
         x = info["state"]
         nxt = int(env.unwrapped.goal["next"])
         forward = np.array([math.sin(x[4]), -math.cos(x[4])])
-
-        def towards(point):
-            offset = point - x[:2]
-            distance = np.hypot(*offset)
-            u = offset / distance
-            return distance, forward[0] * u[1] - forward[1] * u[0], forward @ u, u
-
-        d, sin_b, cos_b, u = towards(points[min(nxt, 3)])
-        d2, sin2, cos2, _ = towards(points[min(nxt + 1, 3)])
+        d, sin_b, cos_b, u = towards(x, forward, points[min(nxt, 3)])
+        d2, sin2, cos2, _ = towards(x, forward, points[min(nxt + 1, 3)])
         dphi_target = 2.0 / PARAMS.radius
         expected = [d, sin_b, cos_b, d2, sin2, cos2, x[3], x[6], x[5] - dphi_target, x[7], (4 - nxt) / 4]
         np.testing.assert_allclose(observation, np.float32(expected), rtol=1e-5, atol=1e-5)
-        # The rolling constraint's centre velocity: r (dphi - dpsi sin theta) f + r cos(theta) dtheta (cos psi, sin psi).
+        # The rolling constraint's centre velocity: r (dphi - dpsi sin theta) f + r cos theta dtheta (cos psi, sin psi).
         r = PARAMS.radius
         velocity = r * (x[5] - x[7] * math.sin(x[3])) * forward + r * math.cos(x[3]) * x[6] * np.array(
             [math.cos(x[4]), math.sin(x[4])]

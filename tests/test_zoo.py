@@ -163,7 +163,7 @@ def test_an_activation_given_as_a_string_is_refused():
 def test_each_task_has_its_own_id(task, env_id):
     spec = gym.spec(env_id)
     assert spec.kwargs == {"task": task}
-    assert spec.max_episode_steps == rd.MAX_EPISODE_STEPS and spec.reward_threshold is not None
+    assert spec.max_episode_steps == rd.TASK_MAX_STEPS[task] and spec.reward_threshold is not None
     assert gym.make(env_id).unwrapped.task.name == task
     envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
     assert isinstance(envs, rd.RollingDiskVectorEnv) and envs.task.name == task

@@ -39,8 +39,8 @@ def circle_reset_contact(arguments):
 
 
 def circle_step_euler(arguments):
-    """One control period of disk k of task 'circle' (``circle.step_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'circle' (``circle.step_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -51,8 +51,8 @@ def circle_step_euler(arguments):
 
 
 def circle_step_symplectic_euler(arguments):
-    """One control period of disk k of task 'circle' (``circle.step_symplectic_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'circle' (``circle.step_symplectic_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -63,8 +63,8 @@ def circle_step_symplectic_euler(arguments):
 
 
 def circle_step_rk4(arguments):
-    """One control period of disk k of task 'circle' (``circle.step_rk4_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'circle' (``circle.step_rk4_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -75,8 +75,8 @@ def circle_step_rk4(arguments):
 
 
 def circle_step_dopri5(arguments):
-    """One control period of disk k of task 'circle' (``circle.step_dopri5_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'circle' (``circle.step_dopri5_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -89,7 +89,8 @@ def circle_step_dopri5(arguments):
 def circle_step_contact(arguments):
     """The rolling pass of a control period of disk k of task 'circle' under the "sliding" or "coulomb" contact
     (``circle.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`circle_step_contact_hybrid`, the others end their step here."""
+    SLIDES) is queued in ``control.queue`` for :func:`circle_step_contact_hybrid`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -105,10 +106,10 @@ def circle_step_contact(arguments):
 
 
 def circle_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task 'circle' that :func:`circle_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``circle.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+    """The hybrid pass of the disks of task 'circle' that :func:`circle_step_contact` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``circle.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
@@ -116,6 +117,90 @@ def circle_step_contact_hybrid(arguments):
         k = queue[1 + j]
         circle.contact_hybrid_share(k, batch, setup, out)
         circle.contact_outputs_share(k, batch, setup, out)
+        circle.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            circle.reset_contact_share(k, resets, batch, setup, out)
+
+
+def circle_step_euler_training(arguments):
+    """One control period of disk k of task 'circle' (``circle.step_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        circle.step_euler_training_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            circle.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def circle_step_symplectic_euler_training(arguments):
+    """One control period of disk k of task 'circle' (``circle.step_symplectic_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        circle.step_symplectic_euler_training_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            circle.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def circle_step_rk4_training(arguments):
+    """One control period of disk k of task 'circle' (``circle.step_rk4_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        circle.step_rk4_training_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            circle.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def circle_step_dopri5_training(arguments):
+    """One control period of disk k of task 'circle' (``circle.step_dopri5_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        circle.step_dopri5_training_share(np.int64(k), actions, batch, setup, out)
+        circle.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            circle.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def circle_step_contact_training(arguments):
+    """The rolling pass of a control period of disk k of task 'circle' under the "sliding" or "coulomb" contact
+    (``circle.contact_roll_training_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`circle_step_contact_hybrid_training`, the others end their step
+    here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        circle.contact_roll_training_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            circle.contact_outputs_training_share(np.int64(k), batch, setup, out)
+            circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                circle.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def circle_step_contact_hybrid_training(arguments):
+    """The hybrid pass of the disks of task 'circle' that :func:`circle_step_contact_training` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``circle.contact_hybrid_training_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        circle.contact_hybrid_training_share(k, batch, setup, out)
+        circle.contact_outputs_training_share(k, batch, setup, out)
         circle.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             circle.reset_contact_share(k, resets, batch, setup, out)
@@ -138,8 +223,8 @@ def eight_reset_contact(arguments):
 
 
 def eight_step_euler(arguments):
-    """One control period of disk k of task 'eight' (``eight.step_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'eight' (``eight.step_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -150,8 +235,8 @@ def eight_step_euler(arguments):
 
 
 def eight_step_symplectic_euler(arguments):
-    """One control period of disk k of task 'eight' (``eight.step_symplectic_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'eight' (``eight.step_symplectic_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -162,8 +247,8 @@ def eight_step_symplectic_euler(arguments):
 
 
 def eight_step_rk4(arguments):
-    """One control period of disk k of task 'eight' (``eight.step_rk4_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'eight' (``eight.step_rk4_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -174,8 +259,8 @@ def eight_step_rk4(arguments):
 
 
 def eight_step_dopri5(arguments):
-    """One control period of disk k of task 'eight' (``eight.step_dopri5_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'eight' (``eight.step_dopri5_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -188,7 +273,8 @@ def eight_step_dopri5(arguments):
 def eight_step_contact(arguments):
     """The rolling pass of a control period of disk k of task 'eight' under the "sliding" or "coulomb" contact
     (``eight.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`eight_step_contact_hybrid`, the others end their step here."""
+    SLIDES) is queued in ``control.queue`` for :func:`eight_step_contact_hybrid`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -204,10 +290,10 @@ def eight_step_contact(arguments):
 
 
 def eight_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task 'eight' that :func:`eight_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``eight.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+    """The hybrid pass of the disks of task 'eight' that :func:`eight_step_contact` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``eight.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
@@ -215,6 +301,90 @@ def eight_step_contact_hybrid(arguments):
         k = queue[1 + j]
         eight.contact_hybrid_share(k, batch, setup, out)
         eight.contact_outputs_share(k, batch, setup, out)
+        eight.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_contact_share(k, resets, batch, setup, out)
+
+
+def eight_step_euler_training(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_euler_training_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_symplectic_euler_training(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_symplectic_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_symplectic_euler_training_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_rk4_training(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_rk4_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_rk4_training_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_dopri5_training(arguments):
+    """One control period of disk k of task 'eight' (``eight.step_dopri5_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.step_dopri5_training_share(np.int64(k), actions, batch, setup, out)
+        eight.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            eight.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_contact_training(arguments):
+    """The rolling pass of a control period of disk k of task 'eight' under the "sliding" or "coulomb" contact
+    (``eight.contact_roll_training_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`eight_step_contact_hybrid_training`, the others end their step
+    here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        eight.contact_roll_training_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            eight.contact_outputs_training_share(np.int64(k), batch, setup, out)
+            eight.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                eight.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def eight_step_contact_hybrid_training(arguments):
+    """The hybrid pass of the disks of task 'eight' that :func:`eight_step_contact_training` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``eight.contact_hybrid_training_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        eight.contact_hybrid_training_share(k, batch, setup, out)
+        eight.contact_outputs_training_share(k, batch, setup, out)
         eight.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             eight.reset_contact_share(k, resets, batch, setup, out)
@@ -237,8 +407,8 @@ def goto_reset_contact(arguments):
 
 
 def goto_step_euler(arguments):
-    """One control period of disk k of task 'goto' (``goto.step_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'goto' (``goto.step_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -249,8 +419,8 @@ def goto_step_euler(arguments):
 
 
 def goto_step_symplectic_euler(arguments):
-    """One control period of disk k of task 'goto' (``goto.step_symplectic_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'goto' (``goto.step_symplectic_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -261,8 +431,8 @@ def goto_step_symplectic_euler(arguments):
 
 
 def goto_step_rk4(arguments):
-    """One control period of disk k of task 'goto' (``goto.step_rk4_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'goto' (``goto.step_rk4_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -273,8 +443,8 @@ def goto_step_rk4(arguments):
 
 
 def goto_step_dopri5(arguments):
-    """One control period of disk k of task 'goto' (``goto.step_dopri5_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'goto' (``goto.step_dopri5_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -287,7 +457,8 @@ def goto_step_dopri5(arguments):
 def goto_step_contact(arguments):
     """The rolling pass of a control period of disk k of task 'goto' under the "sliding" or "coulomb" contact
     (``goto.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`goto_step_contact_hybrid`, the others end their step here."""
+    SLIDES) is queued in ``control.queue`` for :func:`goto_step_contact_hybrid`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -303,10 +474,10 @@ def goto_step_contact(arguments):
 
 
 def goto_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task 'goto' that :func:`goto_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``goto.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+    """The hybrid pass of the disks of task 'goto' that :func:`goto_step_contact` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``goto.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
@@ -314,6 +485,90 @@ def goto_step_contact_hybrid(arguments):
         k = queue[1 + j]
         goto.contact_hybrid_share(k, batch, setup, out)
         goto.contact_outputs_share(k, batch, setup, out)
+        goto.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            goto.reset_contact_share(k, resets, batch, setup, out)
+
+
+def goto_step_euler_training(arguments):
+    """One control period of disk k of task 'goto' (``goto.step_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        goto.step_euler_training_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            goto.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def goto_step_symplectic_euler_training(arguments):
+    """One control period of disk k of task 'goto' (``goto.step_symplectic_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        goto.step_symplectic_euler_training_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            goto.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def goto_step_rk4_training(arguments):
+    """One control period of disk k of task 'goto' (``goto.step_rk4_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        goto.step_rk4_training_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            goto.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def goto_step_dopri5_training(arguments):
+    """One control period of disk k of task 'goto' (``goto.step_dopri5_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        goto.step_dopri5_training_share(np.int64(k), actions, batch, setup, out)
+        goto.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            goto.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def goto_step_contact_training(arguments):
+    """The rolling pass of a control period of disk k of task 'goto' under the "sliding" or "coulomb" contact
+    (``goto.contact_roll_training_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`goto_step_contact_hybrid_training`, the others end their step
+    here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        goto.contact_roll_training_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            goto.contact_outputs_training_share(np.int64(k), batch, setup, out)
+            goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                goto.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def goto_step_contact_hybrid_training(arguments):
+    """The hybrid pass of the disks of task 'goto' that :func:`goto_step_contact_training` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``goto.contact_hybrid_training_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        goto.contact_hybrid_training_share(k, batch, setup, out)
+        goto.contact_outputs_training_share(k, batch, setup, out)
         goto.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             goto.reset_contact_share(k, resets, batch, setup, out)
@@ -330,7 +585,8 @@ def ice_reset_contact(arguments):
 def ice_step_contact(arguments):
     """The rolling pass of a control period of disk k of task 'ice' under the "sliding" or "coulomb" contact
     (``ice.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`ice_step_contact_hybrid`, the others end their step here."""
+    SLIDES) is queued in ``control.queue`` for :func:`ice_step_contact_hybrid`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -346,10 +602,10 @@ def ice_step_contact(arguments):
 
 
 def ice_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task 'ice' that :func:`ice_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``ice.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+    """The hybrid pass of the disks of task 'ice' that :func:`ice_step_contact` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``ice.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
@@ -357,6 +613,42 @@ def ice_step_contact_hybrid(arguments):
         k = queue[1 + j]
         ice.contact_hybrid_share(k, batch, setup, out)
         ice.contact_outputs_share(k, batch, setup, out)
+        ice.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            ice.reset_contact_share(k, resets, batch, setup, out)
+
+
+def ice_step_contact_training(arguments):
+    """The rolling pass of a control period of disk k of task 'ice' under the "sliding" or "coulomb" contact
+    (``ice.contact_roll_training_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`ice_step_contact_hybrid_training`, the others end their step
+    here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        ice.contact_roll_training_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            ice.contact_outputs_training_share(np.int64(k), batch, setup, out)
+            ice.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                ice.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def ice_step_contact_hybrid_training(arguments):
+    """The hybrid pass of the disks of task 'ice' that :func:`ice_step_contact_training` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``ice.contact_hybrid_training_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        ice.contact_hybrid_training_share(k, batch, setup, out)
+        ice.contact_outputs_training_share(k, batch, setup, out)
         ice.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             ice.reset_contact_share(k, resets, batch, setup, out)
@@ -379,8 +671,8 @@ def recovery_reset_contact(arguments):
 
 
 def recovery_step_euler(arguments):
-    """One control period of disk k of task 'recovery' (``recovery.step_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'recovery' (``recovery.step_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -391,8 +683,8 @@ def recovery_step_euler(arguments):
 
 
 def recovery_step_symplectic_euler(arguments):
-    """One control period of disk k of task 'recovery' (``recovery.step_symplectic_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'recovery' (``recovery.step_symplectic_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -403,8 +695,8 @@ def recovery_step_symplectic_euler(arguments):
 
 
 def recovery_step_rk4(arguments):
-    """One control period of disk k of task 'recovery' (``recovery.step_rk4_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'recovery' (``recovery.step_rk4_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -415,8 +707,8 @@ def recovery_step_rk4(arguments):
 
 
 def recovery_step_dopri5(arguments):
-    """One control period of disk k of task 'recovery' (``recovery.step_dopri5_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'recovery' (``recovery.step_dopri5_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -429,7 +721,8 @@ def recovery_step_dopri5(arguments):
 def recovery_step_contact(arguments):
     """The rolling pass of a control period of disk k of task 'recovery' under the "sliding" or "coulomb" contact
     (``recovery.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`recovery_step_contact_hybrid`, the others end their step here."""
+    SLIDES) is queued in ``control.queue`` for :func:`recovery_step_contact_hybrid`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -445,10 +738,10 @@ def recovery_step_contact(arguments):
 
 
 def recovery_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task 'recovery' that :func:`recovery_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``recovery.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+    """The hybrid pass of the disks of task 'recovery' that :func:`recovery_step_contact` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``recovery.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
@@ -456,6 +749,90 @@ def recovery_step_contact_hybrid(arguments):
         k = queue[1 + j]
         recovery.contact_hybrid_share(k, batch, setup, out)
         recovery.contact_outputs_share(k, batch, setup, out)
+        recovery.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_contact_share(k, resets, batch, setup, out)
+
+
+def recovery_step_euler_training(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_euler_training_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_symplectic_euler_training(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_symplectic_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_symplectic_euler_training_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_rk4_training(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_rk4_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_rk4_training_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_dopri5_training(arguments):
+    """One control period of disk k of task 'recovery' (``recovery.step_dopri5_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.step_dopri5_training_share(np.int64(k), actions, batch, setup, out)
+        recovery.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            recovery.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_contact_training(arguments):
+    """The rolling pass of a control period of disk k of task 'recovery' under the "sliding" or "coulomb" contact
+    (``recovery.contact_roll_training_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`recovery_step_contact_hybrid_training`, the others end their step
+    here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        recovery.contact_roll_training_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            recovery.contact_outputs_training_share(np.int64(k), batch, setup, out)
+            recovery.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                recovery.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def recovery_step_contact_hybrid_training(arguments):
+    """The hybrid pass of the disks of task 'recovery' that :func:`recovery_step_contact_training` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``recovery.contact_hybrid_training_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        recovery.contact_hybrid_training_share(k, batch, setup, out)
+        recovery.contact_outputs_training_share(k, batch, setup, out)
         recovery.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             recovery.reset_contact_share(k, resets, batch, setup, out)
@@ -478,8 +855,8 @@ def upright_reset_contact(arguments):
 
 
 def upright_step_euler(arguments):
-    """One control period of disk k of task 'upright' (``upright.step_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'upright' (``upright.step_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -490,8 +867,8 @@ def upright_step_euler(arguments):
 
 
 def upright_step_symplectic_euler(arguments):
-    """One control period of disk k of task 'upright' (``upright.step_symplectic_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'upright' (``upright.step_symplectic_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -502,8 +879,8 @@ def upright_step_symplectic_euler(arguments):
 
 
 def upright_step_rk4(arguments):
-    """One control period of disk k of task 'upright' (``upright.step_rk4_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'upright' (``upright.step_rk4_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -514,8 +891,8 @@ def upright_step_rk4(arguments):
 
 
 def upright_step_dopri5(arguments):
-    """One control period of disk k of task 'upright' (``upright.step_dopri5_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'upright' (``upright.step_dopri5_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -528,7 +905,8 @@ def upright_step_dopri5(arguments):
 def upright_step_contact(arguments):
     """The rolling pass of a control period of disk k of task 'upright' under the "sliding" or "coulomb" contact
     (``upright.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`upright_step_contact_hybrid`, the others end their step here."""
+    SLIDES) is queued in ``control.queue`` for :func:`upright_step_contact_hybrid`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -544,10 +922,10 @@ def upright_step_contact(arguments):
 
 
 def upright_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task 'upright' that :func:`upright_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``upright.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+    """The hybrid pass of the disks of task 'upright' that :func:`upright_step_contact` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``upright.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
@@ -555,6 +933,90 @@ def upright_step_contact_hybrid(arguments):
         k = queue[1 + j]
         upright.contact_hybrid_share(k, batch, setup, out)
         upright.contact_outputs_share(k, batch, setup, out)
+        upright.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            upright.reset_contact_share(k, resets, batch, setup, out)
+
+
+def upright_step_euler_training(arguments):
+    """One control period of disk k of task 'upright' (``upright.step_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        upright.step_euler_training_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            upright.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def upright_step_symplectic_euler_training(arguments):
+    """One control period of disk k of task 'upright' (``upright.step_symplectic_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        upright.step_symplectic_euler_training_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            upright.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def upright_step_rk4_training(arguments):
+    """One control period of disk k of task 'upright' (``upright.step_rk4_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        upright.step_rk4_training_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            upright.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def upright_step_dopri5_training(arguments):
+    """One control period of disk k of task 'upright' (``upright.step_dopri5_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        upright.step_dopri5_training_share(np.int64(k), actions, batch, setup, out)
+        upright.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            upright.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def upright_step_contact_training(arguments):
+    """The rolling pass of a control period of disk k of task 'upright' under the "sliding" or "coulomb" contact
+    (``upright.contact_roll_training_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`upright_step_contact_hybrid_training`, the others end their step
+    here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        upright.contact_roll_training_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            upright.contact_outputs_training_share(np.int64(k), batch, setup, out)
+            upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                upright.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def upright_step_contact_hybrid_training(arguments):
+    """The hybrid pass of the disks of task 'upright' that :func:`upright_step_contact_training` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``upright.contact_hybrid_training_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        upright.contact_hybrid_training_share(k, batch, setup, out)
+        upright.contact_outputs_training_share(k, batch, setup, out)
         upright.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             upright.reset_contact_share(k, resets, batch, setup, out)
@@ -577,8 +1039,8 @@ def waypoints_reset_contact(arguments):
 
 
 def waypoints_step_euler(arguments):
-    """One control period of disk k of task 'waypoints' (``waypoints.step_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'waypoints' (``waypoints.step_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -589,8 +1051,8 @@ def waypoints_step_euler(arguments):
 
 
 def waypoints_step_symplectic_euler(arguments):
-    """One control period of disk k of task 'waypoints' (``waypoints.step_symplectic_euler_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'waypoints' (``waypoints.step_symplectic_euler_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -601,8 +1063,8 @@ def waypoints_step_symplectic_euler(arguments):
 
 
 def waypoints_step_rk4(arguments):
-    """One control period of disk k of task 'waypoints' (``waypoints.step_rk4_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'waypoints' (``waypoints.step_rk4_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -613,8 +1075,8 @@ def waypoints_step_rk4(arguments):
 
 
 def waypoints_step_dopri5(arguments):
-    """One control period of disk k of task 'waypoints' (``waypoints.step_dopri5_share``), its autoreset decided on the
-    device."""
+    """One control period of disk k of task 'waypoints' (``waypoints.step_dopri5_share``), its autoreset decided on
+    the device."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -627,7 +1089,8 @@ def waypoints_step_dopri5(arguments):
 def waypoints_step_contact(arguments):
     """The rolling pass of a control period of disk k of task 'waypoints' under the "sliding" or "coulomb" contact
     (``waypoints.contact_roll_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
-    SLIDES) is queued in ``control.queue`` for :func:`waypoints_step_contact_hybrid`, the others end their step here."""
+    SLIDES) is queued in ``control.queue`` for :func:`waypoints_step_contact_hybrid`, the others end their step
+    here."""
     actions, batch, setup, out, resets, control = arguments
     k = cuda.grid(1)
     if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
@@ -643,10 +1106,10 @@ def waypoints_step_contact(arguments):
 
 
 def waypoints_step_contact_hybrid(arguments):
-    """The hybrid pass of the disks of task 'waypoints' that :func:`waypoints_step_contact` queued, thread j taking the j-th:
-    the disks that slide run together, instead of holding the warps of the disks that roll
-    (``waypoints.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as disks;
-    those past the queue's count return at once."""
+    """The hybrid pass of the disks of task 'waypoints' that :func:`waypoints_step_contact` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``waypoints.contact_hybrid_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
     actions, batch, setup, out, resets, control = arguments
     queue = control[8]
     j = cuda.grid(1)
@@ -654,6 +1117,90 @@ def waypoints_step_contact_hybrid(arguments):
         k = queue[1 + j]
         waypoints.contact_hybrid_share(k, batch, setup, out)
         waypoints.contact_outputs_share(k, batch, setup, out)
+        waypoints.reset_contact_share(k, resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_contact_share(k, resets, batch, setup, out)
+
+
+def waypoints_step_euler_training(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_euler_training_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_symplectic_euler_training(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_symplectic_euler_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_symplectic_euler_training_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_rk4_training(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_rk4_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_rk4_training_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_dopri5_training(arguments):
+    """One control period of disk k of task 'waypoints' (``waypoints.step_dopri5_training_share``), its autoreset decided on
+    the device."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.step_dopri5_training_share(np.int64(k), actions, batch, setup, out)
+        waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+        if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+            waypoints.reset_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_contact_training(arguments):
+    """The rolling pass of a control period of disk k of task 'waypoints' under the "sliding" or "coulomb" contact
+    (``waypoints.contact_roll_training_share``), its autoreset decided on the device: a disk that needs the hybrid (lanes row
+    SLIDES) is queued in ``control.queue`` for :func:`waypoints_step_contact_hybrid_training`, the others end their step
+    here."""
+    actions, batch, setup, out, resets, control = arguments
+    k = cuda.grid(1)
+    if k < batch[0].shape[1] and engine.device_step_due(k, control, resets[0]):
+        waypoints.contact_roll_training_share(np.int64(k), actions, batch, setup, out)
+        if batch[0][SLIDES, k, 0] != 0.0:
+            queue = control[8]
+            queue[1 + cuda.atomic.add(queue, 0, 1)] = k
+        else:
+            waypoints.contact_outputs_training_share(np.int64(k), batch, setup, out)
+            waypoints.reset_contact_share(np.int64(k), resets, batch, setup, out)
+            if engine.device_step_ended(k, out, batch[0], control, resets[0]):
+                waypoints.reset_contact_share(np.int64(k), resets, batch, setup, out)
+
+
+def waypoints_step_contact_hybrid_training(arguments):
+    """The hybrid pass of the disks of task 'waypoints' that :func:`waypoints_step_contact_training` queued, thread j taking the
+    j-th: the disks that slide run together, instead of holding the warps of the disks that roll
+    (``waypoints.contact_hybrid_training_share``, then the disk's outputs and autoreset). Launched on as many threads as
+    disks; those past the queue's count return at once."""
+    actions, batch, setup, out, resets, control = arguments
+    queue = control[8]
+    j = cuda.grid(1)
+    if j < queue[0]:
+        k = queue[1 + j]
+        waypoints.contact_hybrid_training_share(k, batch, setup, out)
+        waypoints.contact_outputs_training_share(k, batch, setup, out)
         waypoints.reset_contact_share(k, resets, batch, setup, out)
         if engine.device_step_ended(k, out, batch[0], control, resets[0]):
             waypoints.reset_contact_share(k, resets, batch, setup, out)

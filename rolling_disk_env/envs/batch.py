@@ -43,6 +43,7 @@ except ImportError:  # Windows
     fcntl = None
 
 from rolling_disk_env import engine
+from rolling_disk_env.constants import set_suffix
 from rolling_disk_env.dynamics import ROLLING_INDICES
 from rolling_disk_env.envs.config import DRAWN, EnvConfig
 from rolling_disk_env.jit import first_class
@@ -70,18 +71,30 @@ step against the serial one around it)."""
 
 
 def task_steps(task: Task) -> ModuleType:
-    """The generated steps of a task (``_generated/<name>.py``), checked against the task module's source.
+    """The generated steps of a task (``_generated/<name>.py``, or those of the task it runs the steps of:
+    ``Task.steps_of``), checked against the source of the task module they were generated from and against the task's
+    layout (its reward terms and observation).
 
     Raises:
-        RuntimeError: the task module changed since its steps were generated, or they were never generated.
+        RuntimeError: the task module changed since its steps were generated, they were never generated, or they lay
+            out another number of reward terms or observations.
     """
+    from rolling_disk_env.tasks import TASKS
+
     regenerate = "run `python -m rolling_disk_env.codegen`"
+    name = task.steps_name
     try:
-        steps = importlib.import_module(f"rolling_disk_env._generated.{task.name}")
+        steps = importlib.import_module(f"rolling_disk_env._generated.{name}")
     except ModuleNotFoundError:
-        raise RuntimeError(f"task {task.name!r} has no generated steps: {regenerate}") from None
-    if steps.TASK_SOURCE != task.source_hash():
-        raise RuntimeError(f"task {task.name!r} changed since its steps were generated: {regenerate}")
+        raise RuntimeError(f"task {name!r} has no generated steps: {regenerate}") from None
+    if steps.TASK_SOURCE != TASKS[name].source_hash():
+        raise RuntimeError(f"task {name!r} changed since its steps were generated: {regenerate}")
+    terms, observations = steps.OBSERVATION - engine.TERMS, steps.OBSERVATION_SIZE
+    if (len(task.reward_weights), len(task.observation_names)) != (terms, observations):
+        raise RuntimeError(
+            f"task {task.name!r} runs the steps of {name!r}, which write {terms} reward terms and {observations} "
+            "observations: another number than the task's"
+        )
     return steps
 
 
@@ -400,10 +413,13 @@ class DiskBatch:
             Gymnasium's TimeLimit wrapper).
     """
 
-    def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None):
+    def __init__(self, config: EnvConfig, num_envs: int, max_episode_steps: int | None, info_keys: str = "full"):
         task = config.task
         steps = task_steps(task)
         self.num_envs = num_envs
+        self.info_keys = info_keys
+        """What the step writes beside the observations, rewards and flags: ``"full"`` (every row of the info block)
+        or ``"training"`` (the termination codes; ``rolling_disk_env.codegen.INFO_SETS``)."""
         self.threads, self.share = self._layout(num_envs)
         width = self.threads * self.share
         # The kernel that steps and resets a range of shares: one compiled function for the single env's and the vector
@@ -411,11 +427,13 @@ class DiskBatch:
         self.method = config.integrator if config.contact == "rolling" else "contact"
         """The step's method: the integrator under the ``"rolling"`` contact, else ``"contact"``."""
         self._shares = (
-            getattr(steps, f"step_{self.method}_share"),
+            getattr(steps, f"step_{self.method}{set_suffix(info_keys)}_share"),
             steps.reset_share if config.contact == "rolling" else steps.reset_contact_share,
         )
         """The share functions of the configuration's step and reset (``_generated/<task>.py``)."""
-        self.description = f"the step and reset of task {task.name!r} ({self.method}, {config.contact} contact)"
+        self.description = (
+            f"the step and reset of task {task.name!r} ({self.method}, {config.contact} contact, {info_keys} outputs)"
+        )
         """What the kernels compute, as the compile log names them (:func:`entry_point`)."""
         self.contact_rows = None if config.contact == "rolling" else steps.CONTACT_ROWS
         """The first row of ``engine.SLIDING_INFO`` in the info block (None under the ``"rolling"`` contact)."""

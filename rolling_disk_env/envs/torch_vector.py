@@ -27,7 +27,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
     """:class:`~rolling_disk_env.envs.RollingDiskVectorEnv` with torch tensors in and out, what
     ``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point", device=...)`` returns.
 
-    The same arguments, spaces, autoreset modes, seeding and ``info`` keys, plus ``device``:
+    The same arguments, spaces, autoreset modes and seeding, plus ``device``:
 
     - ``"cuda"``: the disks live in GPU memory and each step and reset is one launch of the task's CUDA kernel, a GPU
       thread a disk (:mod:`rolling_disk_env.gpu`; the ``[gpu]`` extra), on torch's current stream and the current
@@ -36,23 +36,30 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
     - ``"cpu"``: the CPU engine (:class:`~rolling_disk_env.envs.RollingDiskVectorEnv`'s batch, on numba's threads),
       its outputs handed out as tensors without a copy.
 
-    ``step`` takes the actions as a torch tensor (or anything ``torch.as_tensor`` takes: DLPack, the CUDA array
-    interface, numpy) of shape (N, A), converted to float32 on the env's device, clipped to [-1, 1]; non-finite
-    actions raise ``ValueError`` as in the CPU env. It returns the observations (N, obs) float32, the rewards (N,)
-    float32, terminated and truncated (N,) bool, and ``info`` as tensors on the device: ``"state"`` (N, 8) or (N, 10)
-    float64, ``"energy"``, ``"contact_force"``, ``"normal_force"``, ``"required_friction"``, ``"sliding"``,
-    ``"slip_velocity"``, ``"is_success"``, ``"termination"`` and the reward terms, each with its mask ``"_key"``. On
-    the GPU the info tensors are views of buffers that the next step overwrites: clone what you keep. SAME_STEP's
-    ``info["final_obs"]`` is a tensor (N, obs) whose rows hold the last observations where ``"_final_obs"`` is True.
-    ``reset(options=...)`` takes ``"reset_mask"`` and ``"state"`` as tensors or arrays.
+    ``info_keys`` is ``"training"`` by default here: ``info`` holds ``"is_success"`` and ``"termination"`` (and the
+    drawn constants of ``params_ranges``), what trainers and autoreset read, and the step writes nothing else;
+    ``info_keys="full"`` gives the numpy env's keys (and writes them).
 
-    On the GPU a step reads one status word from the device (so that a non-finite action still raises
-    ``ValueError`` and steps nothing, and DISABLED's ended disks are found) and copies nothing else between host and
-    device (:class:`~rolling_disk_env.gpu.DeviceBatch`); ``reset(options={"reset_mask": mask})`` with a mask on the
-    device copies nothing either, and so does not check that the mask holds a True (an empty mask resets no disk).
-    The one difference from ``SyncVectorEnv`` there: under SAME_STEP, ``"final_obs"`` and ``"final_info"`` (views
-    too) are in the info of every step, their masks False where no episode ended (a host check of the flags would
-    cost a synchronization a step).
+    ``step`` takes the actions as a torch tensor (or anything ``torch.as_tensor`` takes: DLPack, the CUDA array
+    interface, numpy) of shape (N, A), converted to float32 on the env's device, clipped to [-1, 1]. It returns the
+    observations (N, obs) float32, the rewards (N,) float32, terminated and truncated (N,) bool, and ``info`` as
+    tensors on the device, each key with its mask ``"_key"``; with ``info_keys="full"``: ``"state"`` (N, 8) or (N,
+    10) float64, ``"energy"``, ``"contact_force"``, ``"normal_force"``, ``"required_friction"``, ``"sliding"``,
+    ``"slip_velocity"``, ``"is_success"``, ``"termination"`` and the reward terms. On the GPU the info tensors are
+    views of buffers that the next step overwrites: clone what you keep. SAME_STEP's ``info["final_obs"]`` is a tensor
+    (N, obs) whose rows hold the last observations where ``"_final_obs"`` is True; its ``"final_info"`` has the keys
+    of ``info_keys``. ``reset(options=...)`` takes ``"reset_mask"`` and ``"state"`` as tensors or arrays.
+
+    On the CPU, non-finite actions raise ``ValueError`` at the step, as in the numpy env. On the GPU a step never
+    waits for the device: it queues its launches and an asynchronous copy of the check's status word, and copies
+    nothing else between host and device (:class:`~rolling_disk_env.gpu.DeviceBatch`). A step whose actions hold a
+    non-finite value (or, under DISABLED, an ended disk) steps no disk, nor does any step after it, and the first
+    ``step()`` or ``reset()`` after the device has done it raises ``ValueError``
+    (:class:`~rolling_disk_env.gpu.DeviceStepError`) naming the step and the disks: the outputs of the steps in
+    between are meaningless. ``reset(options={"reset_mask": mask})`` with a mask on the device copies nothing
+    either, and so does not check that the mask holds a True (an empty mask resets no disk). The one difference from
+    ``SyncVectorEnv`` there: under SAME_STEP, ``"final_obs"`` and ``"final_info"`` (views too) are in the info of every
+    step, their masks False where no episode ended (a host check of the flags would cost a synchronization a step).
 
     ``reset(seed=s)`` draws the same episodes as the CPU vector env (the same PCG64 streams,
     :mod:`rolling_disk_env.pcg64`), and the steps follow it within the rounding of fused multiply-adds on the GPU
@@ -66,6 +73,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         render_mode: None = None,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         device: str | torch.device = "cpu",
+        info_keys: str = "training",
         **kwargs,
     ):
         try:
@@ -81,7 +89,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
             )
         self._on_gpu = requested.type == "cuda"
         self.device = torch.device("cpu")
-        super().__init__(num_envs, max_episode_steps, render_mode, autoreset_mode, **kwargs)
+        super().__init__(num_envs, max_episode_steps, render_mode, autoreset_mode, info_keys, **kwargs)
         if self._on_gpu:
             self.device = self._batch.device
             self._rngs = self._batch.rngs
@@ -104,7 +112,7 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
             return super()._new_batch(max_episode_steps)
         from rolling_disk_env.gpu import DeviceBatch
 
-        return DeviceBatch(self.config, self.num_envs, max_episode_steps, MODES[self.autoreset_mode])
+        return DeviceBatch(self.config, self.num_envs, max_episode_steps, MODES[self.autoreset_mode], self.info_keys)
 
     def _set_rngs(self, words: np.ndarray, mask: np.ndarray) -> None:
         if self._on_gpu:
@@ -210,19 +218,11 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         )
 
     def _step_on_device(self, actions):
-        """:meth:`step` on the GPU: one status word read, nothing else crosses."""
+        """:meth:`step` on the GPU: nothing waits for the device (the batch's
+        :meth:`~rolling_disk_env.gpu.DeviceBatch.step` raises an earlier step's error once the device has done it)."""
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        actions = self._checked_actions(actions)
-        (observations, rewards, terminated, truncated), bad, ended = self._batch.step(actions)
-        if bad >= 0:
-            raise ValueError(f"actions must be finite numbers, got {actions[bad].tolist()} for sub-environment {bad}")
-        if ended >= 0:
-            ended = torch.nonzero(self._batch.ended).flatten().tolist()
-            raise ValueError(
-                f"sub-environments {ended} have ended and autoreset is disabled: "
-                'reset them with reset(options={"reset_mask": mask}) first'
-            )
+        observations, rewards, terminated, truncated = self._batch.step(self._checked_actions(actions))
         for update in self._refresh:
             update()
         return observations, rewards, terminated, truncated, dict(self._step_infos)
@@ -233,6 +233,8 @@ class RollingDiskTorchVectorEnv(RollingDiskVectorEnv):
         the updates that refresh the values that are not views (under the ``"sliding"`` and ``"coulomb"``
         contacts, the 10-state and the sliding flags) after each step."""
         info, first, n, refresh = out.info, self._batch.contact_rows, self.num_envs, []
+        if self.info_keys == "training":
+            return self._masked_infos(out, None, None, None, disks, mask), refresh
         if first is None:
             state, sliding = info[:8].T, torch.zeros(n, dtype=torch.bool, device=self.device)
             slip = torch.zeros((n, 2), dtype=torch.float64, device=self.device)

@@ -12,6 +12,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rolling_disk_env import engine, pcg64
+from rolling_disk_env.constants import INFO_SETS
 from rolling_disk_env.envs.batch import DiskBatch, Outputs
 from rolling_disk_env.envs.config import EnvConfig, checked_actions
 
@@ -38,6 +39,11 @@ class RollingDiskVectorEnv(VectorEnv):
             ``info["final_obs"]`` and the last info in ``info["final_info"]`` (masks ``_final_obs``,
             ``_final_info``). DISABLED: ended sub-environments must be reset with
             ``reset(options={"reset_mask": mask})`` before they step again.
+        info_keys: the info keys of a step (and of SAME_STEP's ``final_info``): ``"full"`` (default), every key of
+            the single env's; or ``"training"``, ``"is_success"`` and ``"termination"`` alone (what autoreset, the
+            success rate and the trainers read), the step then writing none of the other rows (state, energy,
+            contact and normal forces, required friction, reward terms, sliding); a reset's info likewise. The
+            drawn constants of ``params_ranges`` are in both sets.
 
     Sub-environment i is seeded with ``seed + i`` by ``reset(seed=seed)`` (or ``seed[i]`` from a list), as
     ``SyncVectorEnv`` does, and draws its episodes exactly as a single env with that seed would: both run the same
@@ -58,8 +64,12 @@ class RollingDiskVectorEnv(VectorEnv):
         max_episode_steps: int | None = None,
         render_mode: None = None,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        info_keys: str = "full",
         **kwargs,
     ):
+        if info_keys not in INFO_SETS:
+            raise ValueError(f"info_keys must be one of {list(INFO_SETS)}, got {info_keys!r}")
+        self.info_keys = info_keys
         if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool) and num_envs >= 1):
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if max_episode_steps is not None and not (
@@ -139,7 +149,7 @@ class RollingDiskVectorEnv(VectorEnv):
 
     def _new_batch(self, max_episode_steps: int | None) -> DiskBatch:
         """The batch of the env's disks."""
-        return DiskBatch(self.config, self.num_envs, max_episode_steps)
+        return DiskBatch(self.config, self.num_envs, max_episode_steps, self.info_keys)
 
     def _set_rngs(self, words: np.ndarray, mask: np.ndarray) -> None:
         """Sets the PCG64 states of the sub-environments in ``mask`` to those rows of ``words`` ((N, 4) uint64)."""
@@ -191,33 +201,40 @@ class RollingDiskVectorEnv(VectorEnv):
         return out.observations, rewards, terminated, truncated, infos
 
     def _infos(self, out: Outputs, present: np.ndarray | None) -> dict:
-        """The batched info of ``out``: every key, each with its mask ``present`` (None: every sub-environment)."""
+        """The batched info of ``out``: every key of the env's ``info_keys``, each with its mask ``present`` (None:
+        every sub-environment)."""
         info, first = out.info, self._batch.contact_rows
+        mask = np.ones(self.num_envs, dtype=bool) if present is None else present
+        disks = self._batch.lanes[engine.MASS : engine.MU + 1, : self.num_envs].copy()  # before a same-step reset
+        if self.info_keys == "training":
+            return self._masked_infos(out, None, None, None, disks, mask)
         if first is None:
             sliding, slip = np.zeros(self.num_envs, bool), np.zeros((self.num_envs, 2))
         else:
             sliding, slip = info[first + 4] > 0.0, info[first + 2 : first + 4].T
-        mask = np.ones(self.num_envs, dtype=bool) if present is None else present
-        disks = self._batch.lanes[engine.MASS : engine.MU + 1, : self.num_envs].copy()  # before a same-step reset
         return self._masked_infos(out, info[self._batch.state_rows].T, sliding, slip, disks, mask)
 
     def _masked_infos(self, out: Outputs, state, sliding, slip, disks, mask) -> dict:
         """The info keys of ``out`` (its rows as they are, but the ``state``, ``sliding`` flags and ``slip``
         velocities given, and the disks' constants ``disks``, (m, g, r, mu) rows, of which those drawn per episode
-        are reported), each with its mask ``"_key"``: ``mask``."""
+        are reported), each with its mask ``"_key"``: ``mask``. The training set (``state`` None) has the flags and
+        codes alone, and the drawn constants."""
         info = out.info
-        infos = {
-            "state": state,
-            "energy": info[engine.ENERGY],
-            "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
-            "normal_force": info[engine.NORMAL_FORCE],
-            "required_friction": info[engine.REQUIRED_FRICTION],
-            "sliding": sliding,
-            "slip_velocity": slip,
-            "is_success": out.flags[engine.SUCCESS],
-            "termination": out.codes,  # RUNNING (0) where not terminated
-        }
-        infos.update(zip(self._term_keys, info[engine.TERMS :]))
+        infos = {}
+        if state is not None:
+            infos = {
+                "state": state,
+                "energy": info[engine.ENERGY],
+                "contact_force": info[engine.LAMBDA1 : engine.LAMBDA2 + 1].T,
+                "normal_force": info[engine.NORMAL_FORCE],
+                "required_friction": info[engine.REQUIRED_FRICTION],
+                "sliding": sliding,
+                "slip_velocity": slip,
+            }
+        infos["is_success"] = out.flags[engine.SUCCESS]
+        infos["termination"] = out.codes  # RUNNING (0) where not terminated
+        if state is not None:
+            infos.update(zip(self._term_keys, info[engine.TERMS :]))
         for name, row in self._batch.drawn_rows:
             infos[name] = disks[row - engine.MASS]
         masked = {}

@@ -24,11 +24,13 @@ from rolling_disk_env.tasks.eight import EightTask
 from rolling_disk_env.tasks.goto import GotoTask
 from rolling_disk_env.tasks.ice import IceTask
 from rolling_disk_env.tasks.recovery import RecoveryTask
+from rolling_disk_env.tasks.recovery_sparse import RecoverySparseTask
 from rolling_disk_env.tasks.upright import UprightTask
 from rolling_disk_env.tasks.waypoints import WaypointsTask
 
 TASKS: dict[str, type[Task]] = {
-    task.name: task for task in (UprightTask, CircleTask, GotoTask, WaypointsTask, EightTask, RecoveryTask, IceTask)
+    task.name: task
+    for task in (UprightTask, CircleTask, GotoTask, WaypointsTask, EightTask, RecoveryTask, RecoverySparseTask, IceTask)
 }
 
 __all__ = [

@@ -109,6 +109,9 @@ class Task(ABC):
             accepted), or None: any, ``"rolling"`` by default.
         friction_coefficient: the env's ``friction_coefficient`` by default, with :attr:`contact`.
         mark_label: what the renderer's legend calls the task's marks (:meth:`marks`).
+        steps_of: the task whose generated steps (``_generated/<name>.py``) this one runs: itself, or for a task that
+            runs another's kernels and differs only in what the steps read at run time (its reward weights, options
+            and ranges), that one's, so that it compiles nothing of its own.
     """
 
     name: ClassVar[str]
@@ -125,6 +128,7 @@ class Task(ABC):
     contact: ClassVar[str | None] = None
     friction_coefficient: ClassVar[float | None] = None
     mark_label: ClassVar[str] = "target"
+    steps_of: ClassVar[str] = ""
 
     @classmethod
     def source_hash(cls) -> str:
@@ -184,6 +188,11 @@ class Task(ABC):
         progress, by name): polylines, each an (n, 2) array of points (m; a closed one repeats its first point).
         None by default."""
         return []
+
+    @property
+    def steps_name(self) -> str:
+        """The name of the task whose generated steps this one runs (:attr:`steps_of`, else its own)."""
+        return self.steps_of or self.name
 
     @property
     def goal_size(self) -> int:
