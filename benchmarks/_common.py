@@ -4,6 +4,7 @@ results."""
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import platform
@@ -122,11 +123,40 @@ def _installed(name: str) -> bool:
     return True
 
 
-def write_markdown(name: str, title: str, command: str, sections: list[str], out: Path = RESULTS) -> Path:
-    """Writes ``<out>/<name>.md``: a title, how to reproduce, the machine, then the sections."""
+def commit() -> str:
+    """The checkout's commit, with ``-dirty`` where files it tracks have changes."""
+
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+
+    head = git("rev-parse", "--short", "HEAD") or "unknown"
+    return head + ("-dirty" if git("status", "--porcelain", "--untracked-files=no") else "")
+
+
+def settings_hash(settings: object) -> str:
+    """The sha256 of ``settings`` (JSON), what a result records of the repository's settings it ran with
+    (``tests/test_results.py`` checks that they are today's)."""
+    return hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def main_job_settings() -> str:
+    """:func:`settings_hash` of what the main job's wall time follows: its hyperparameter block (``upright`` in
+    ``agents/hyperparams/ppo.yml``)."""
+    import rolling_disk_env as rd
+    from agents.training import HYPERPARAMS, load_hyperparams
+
+    return settings_hash(load_hyperparams(HYPERPARAMS / "ppo.yml", rd.TASK_IDS["upright"]))
+
+
+def write_markdown(
+    name: str, title: str, command: str, sections: list[str], out: Path = RESULTS, settings: str | None = None
+) -> Path:
+    """Writes ``<out>/<name>.md``: a title, how to reproduce, the machine, the commit it ran at (and ``settings``, a
+    :func:`settings_hash`, with what it hashes), then the sections."""
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"{name}.md"
-    body = [f"# {title}", "", f"Reproduce: `{command}`", "", machine(), "", *sections]
+    ran = [f"Commit: {commit()}.", *([f"Settings: sha256 {settings}."] if settings else [])]
+    body = [f"# {title}", "", f"Reproduce: `{command}`", "", machine(), "", *ran, "", *sections]
     path.write_text("\n".join(body).rstrip() + "\n")
     print(path.read_text())
     return path

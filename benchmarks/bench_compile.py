@@ -12,10 +12,10 @@ which a shared machine's other jobs disturb less). By default a sample of the gr
 other integrators on ``upright``, the ``"sliding"`` and ``"coulomb"`` contacts on ``upright`` and ``circle``;
 ``--all`` runs the whole grid. ``--root`` times another checkout of the repository (the code before a change).
 
-*GPU* (``--gpu``, where numba-cuda is installed; no GPU needed): each CUDA kernel of ``_generated/cuda.py`` compiled
-to PTX for sm_90 by NVVM (``numba.cuda.compile_ptx``, as ``tests/test_gpu_build.py`` does), in a fresh process each,
-then the PTX to sm_90 machine code by nvJitLink (``cuda.core.Linker``: the ptxas of the CUDA wheels, as at a kernel's
-first launch), whose report gives each thread's registers, stack frame and spills.
+*GPU* (``--gpu``, where numba-cuda is installed; no GPU needed): the kernels of :data:`GPU_KERNELS` of each task,
+compiled to PTX for sm_90 by NVVM (``numba.cuda.compile_ptx``, as ``tests/test_gpu_build.py`` does), in a fresh
+process each, then the PTX to sm_90 machine code by nvJitLink (``cuda.core.Linker``: the ptxas of the CUDA wheels, as
+at a kernel's first launch), whose report gives each thread's registers, stack frame and spills.
 """
 
 from __future__ import annotations
@@ -29,6 +29,8 @@ import time
 from pathlib import Path
 
 from _common import ROOT, arguments, table, write_markdown
+
+from rolling_disk_env.tasks import TASKS as TASK_CLASSES
 
 CPU_CHILD = r"""
 import json, resource, sys, time
@@ -72,7 +74,9 @@ from tests.test_gpu_build import H100, _arguments
 from rolling_disk_env._generated import cuda as kernels
 
 task, name = sys.argv[1], sys.argv[2]
-contact = {"contact": "coulomb", "friction_coefficient": 0.2} if name.startswith("step_contact") else {}
+from rolling_disk_env.tasks import TASKS
+own = TASKS[task].contact is not None  # a task under a contact of its own (ice) takes its defaults
+contact = {"contact": "coulomb", "friction_coefficient": 0.2} if "contact" in name and not own else {}
 config = EnvConfig.from_kwargs(task=task, **contact)
 arguments = _arguments(config, name)
 numba.cuda.dispatcher.get_current_device = lambda: SimpleNamespace(compute_capability=H100)
@@ -92,8 +96,11 @@ stack, stores, loads = map(int, re.findall(frame, log)[-1])
 print(json.dumps([nvvm, ptxas, registers, stack, stores, loads]))
 """
 
-TASKS = ("upright", "circle", "goto")
+TASKS = tuple(TASK_CLASSES)
 INTEGRATORS = ("euler", "symplectic_euler", "rk4", "dopri5")
+GPU_KERNELS = ("reset", "reset_contact", "step_rk4", "step_rk4_training", "step_contact", "step_contact_hybrid")
+"""The CUDA kernels timed of each task (those it has): its resets, the default step in the full and the training
+set of outputs, the steps of the sliding and Coulomb contacts."""
 
 
 def configurations(everything: bool, quick: bool) -> list[dict]:
@@ -105,6 +112,7 @@ def configurations(everything: bool, quick: bool) -> list[dict]:
         {"task": task, "contact": contact, "friction_coefficient": 0.2}
         for task in TASKS
         for contact in ("sliding", "coulomb")
+        if TASK_CLASSES[task].contact is None  # not a task whose contact is its own (ice)
     ]
     if everything:
         return grid
@@ -175,8 +183,11 @@ def main() -> None:
     if args.gpu:
         python = args.python
         gpu_rows = []
+        generated = (root / "rolling_disk_env" / "_generated" / "cuda.py").read_text()
         for task in TASKS if not args.quick else ("upright",):
-            for name in ("reset", "step_rk4", "step_contact", "step_contact_hybrid"):
+            for name in GPU_KERNELS:
+                if f"def {task}_{name}(" not in generated:  # a task without kernels of its own, or of a contact
+                    continue
                 nvvm, ptxas, registers, stack, stores, loads = child(GPU_CHILD, [task, name], root, python)
                 gpu_rows.append([f"{task}_{name}", f"{nvvm:.1f}", f"{ptxas:.1f}", registers, stack, stores, loads])
                 print(gpu_rows[-1], flush=True)

@@ -2,13 +2,14 @@
 
 Commands (``python benchmarks/bench_learning.py <command> ...``):
 
-* ``cell --task T --trainer X [--seeds S ...]``: trains one cell, trainer X on task T, once per seed, and writes its
-  record, ``<out>/learning/<X>/<T>.json``;
+* ``cell --task T --trainer X [--seeds S ...] [--times K]``: trains one cell, trainer X on task T, once per seed, and
+  writes its record, ``<out>/learning/<X>/<T>.json`` (with K times the block's budget: ``<T>_x<K>.json``);
 * ``table [--jobs 2]``: every cell whose record is missing (or describes other settings), then ``report``; the trainers
   whose library is not installed here are named with the command that runs them (rsl_rl's in a venv of the ``[gpu]``
   extra, rejax's of the ``[jax]`` extra);
-* ``report``: the report of the records there are: ``<out>/learning.md``, its charts, and the manual's page
-  ``docs/learning-benchmark.md``.
+* ``headroom``: what the headroom task allows (:func:`headroom`), ``<out>/learning/headroom.json``;
+* ``report``: the report of the records there are: ``<out>/learning.md`` (the manual's page of the learning
+  benchmark: its charts, its table, then how to reproduce it) and its charts.
 
 ``--quick`` (any command) is a smoke run in another folder: two seeds, 4,096 steps, 10 evaluation episodes.
 
@@ -33,7 +34,6 @@ steps, and labelled so).
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import resource
@@ -45,7 +45,8 @@ from importlib.util import find_spec
 from pathlib import Path
 
 import numpy as np
-from _common import RESULTS, ROOT, cpu, machine, table, write_markdown
+from _common import RESULTS, ROOT, commit, cpu, machine, table
+from _common import settings_hash as common_hash
 
 import rolling_disk_env as rd
 from agents import reporting
@@ -56,7 +57,6 @@ from agents.training import HYPERPARAMS, load_hyperparams
 RUNS = ROOT / "runs" / "bench_learning"
 EPISODES = 100
 """Evaluation episodes of every run, and of the references."""
-DOCS_PAGE = ROOT / "docs" / "learning-benchmark.md"
 
 
 @dataclass(frozen=True)
@@ -80,6 +80,10 @@ TRAINERS = {
 """The table's columns, by their command-line name."""
 JAX_TASKS = tuple(task for task in rd.TASK_IDS if task != "ice")
 """The tasks the JAX env runs (not ice: it has no Coulomb contact)."""
+HEADROOM = {"recovery_sparse": "recovery"}
+"""The headroom task, and its twin with a dense reward (the same starts, dynamics, observation and success)."""
+HEADROOM_TIMES = 4
+"""The headroom task's longer budget: this many times its hyperparameter file's."""
 
 
 def cells() -> list[tuple[str, str]]:
@@ -94,8 +98,9 @@ def block(trainer: str, task: str) -> dict:
     return load_hyperparams(HYPERPARAMS / TRAINERS[trainer].file, rd.TASK_IDS[task])
 
 
-def settings_hash(trainer: str, task: str) -> str:
-    """The sha256 of what a cell's runs depend on but the code: its block, the evaluation's episodes and seeds."""
+def settings_hash(trainer: str, task: str, times: int = 1) -> str:
+    """The sha256 of what a cell's runs depend on but the code: its block, the evaluation's episodes and seeds (and
+    the multiple of the block's budget, where it is not 1)."""
     settings = {
         "trainer": trainer,
         "task": task,
@@ -103,33 +108,25 @@ def settings_hash(trainer: str, task: str) -> str:
         "episodes": EPISODES,
         "seed": EVAL_SEED,
     }
-    return hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()
+    return common_hash(settings if times == 1 else {**settings, "times": times})
 
 
-def commit() -> str:
-    """The checkout's commit, ``-dirty`` where it has changes."""
-
-    def git(*args):
-        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-
-    head = git("rev-parse", "--short", "HEAD") or "unknown"
-    return head + ("-dirty" if git("status", "--porcelain", "--untracked-files=no") else "")
+def record_path(out: Path, trainer: str, task: str, times: int = 1) -> Path:
+    """A cell's record: ``<task>.json``, or ``<task>_x<times>.json`` for a multiple of its budget."""
+    return out / "learning" / trainer / (f"{task}.json" if times == 1 else f"{task}_x{times}.json")
 
 
-def record_path(out: Path, trainer: str, task: str) -> Path:
-    return out / "learning" / trainer / f"{task}.json"
-
-
-def run_cell(trainer: str, task: str, seeds: list[int], out: Path, quick: bool) -> Path:
-    """Trains a cell once per seed and writes its record."""
+def run_cell(trainer: str, task: str, seeds: list[int], out: Path, quick: bool, times: int = 1) -> Path:
+    """Trains a cell once per seed (with ``times`` its block's budget) and writes its record."""
     started = time.time()
-    runs = RUNNERS[trainer](task, seeds, quick)
+    runs = RUNNERS[trainer](task, seeds, quick, times)
     record = {
         "trainer": trainer,
         "task": task,
         "budget": runs[0]["steps"],
+        "budget_times": times,
         "episodes": 10 if quick else EPISODES,
-        "settings_hash": settings_hash(trainer, task),
+        "settings_hash": settings_hash(trainer, task, times),
         "commit": commit(),
         "machine": machine(),
         "cpu": cpu(),
@@ -138,7 +135,7 @@ def run_cell(trainer: str, task: str, seeds: list[int], out: Path, quick: bool) 
         "wall_s": time.time() - started,
         "runs": runs,
     }
-    path = record_path(out, trainer, task)
+    path = record_path(out, trainer, task, times)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(record, indent=1) + "\n")
     print(f"{trainer} on {task}: {[round(run['success'], 2) for run in runs]} success, wrote {path}", flush=True)
@@ -160,9 +157,10 @@ def _cpu_seconds() -> float:
 
 
 def _run_sb3(algo: str):
-    def run(task: str, seeds: list[int], quick: bool) -> list[dict]:
+    def run(task: str, seeds: list[int], quick: bool, times: int) -> list[dict]:
         from agents.training import train
 
+        hyperparams = block(f"sb3-{algo}", task)
         runs = []
         for seed in seeds:
             curve = []
@@ -174,9 +172,9 @@ def _run_sb3(algo: str):
             results = train(
                 task,
                 algo,
-                block(f"sb3-{algo}", task),
-                RUNS / f"sb3-{algo}" / f"{task}_{seed}",
-                timesteps=4096 if quick else None,
+                hyperparams,
+                RUNS / f"sb3-{algo}" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}",
+                timesteps=4096 if quick else int(times * hyperparams["n_timesteps"]),
                 seed=seed,
                 eval_episodes=10 if quick else EPISODES,
                 progress_bar=False,
@@ -192,19 +190,21 @@ def _run_sb3(algo: str):
     return run
 
 
-def _run_rsl_rl(task: str, seeds: list[int], quick: bool) -> list[dict]:
+def _run_rsl_rl(task: str, seeds: list[int], quick: bool, times: int) -> list[dict]:
     from agents.device_training import train_on_device
 
+    hyperparams = block("rsl_rl-ppo", task)
+    budget = hyperparams["num_envs"] * hyperparams["num_steps_per_env"] * hyperparams["max_iterations"]
     runs = []
     for seed in seeds:
-        out = RUNS / "rsl_rl-ppo" / f"{task}_{seed}"
+        out = RUNS / "rsl_rl-ppo" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
         began, cpu_began = time.perf_counter(), _cpu_seconds()
         results = train_on_device(
             task,
-            block("rsl_rl-ppo", task),
+            hyperparams,
             out,
             device="cpu",
-            timesteps=4096 * 16 if quick else None,
+            timesteps=4096 * 16 if quick else times * budget,
             seed=seed,
             eval_episodes=10 if quick else EPISODES,
         )
@@ -237,10 +237,11 @@ def _tensorboard_curve(folder: Path, wall: float, steps: int) -> list[list[float
     ]
 
 
-def _run_rejax(task: str, seeds: list[int], quick: bool) -> list[dict]:
+def _run_rejax(task: str, seeds: list[int], quick: bool, times: int) -> list[dict]:
     from agents.jax_training import train_seeds_in_jax
 
     hyperparams = block("rejax-ppo", task)
+    hyperparams = {**hyperparams, "total_timesteps": times * int(hyperparams["total_timesteps"])}
     if quick:
         hyperparams = {**hyperparams, "total_timesteps": 4096, "eval_freq": 2048}
     began, cpu_began = time.perf_counter(), _cpu_seconds()
@@ -277,6 +278,44 @@ def references(out: Path, quick: bool) -> dict:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(found, indent=1) + "\n")
     return found
+
+
+def headroom(out: Path, quick: bool) -> Path:
+    """Shows what the headroom tasks (:data:`HEADROOM`) allow, where a trainer's PPO fails: the planner on the exact
+    model (:class:`agents.planner.CEMPlanner`) and the policies SB3's PPO trained on the twin with a dense reward (its
+    cell's runs, which must have run here), each over the evaluation's seeded episodes; writes
+    ``<out>/learning/headroom.json``."""
+    from agents.evaluate import load_agent
+    from agents.planner import CEMPlanner, evaluate_planner
+
+    episodes = 10 if quick else EPISODES
+    found = {}
+    for task, dense in HEADROOM.items():
+        twin = record_path(out, "sb3-ppo", dense)
+        seeds = [run["seed"] for run in json.loads(twin.read_text())["runs"]] if twin.exists() else []
+        models = [RUNS / "sb3-ppo" / f"{dense}_{seed}" / "model.zip" for seed in seeds]
+        if not seeds or not all(model.exists() for model in models):
+            raise SystemExit(
+                f"the runs of the dense twin {dense!r} are missing here: run python benchmarks/bench_learning.py "
+                f"cell --task {dense} --trainer sb3-ppo{' --quick' if quick else ''} first"
+            )
+        began = time.perf_counter()
+        planner = evaluate_planner(CEMPlanner(task=task), "CEMPlanner", episodes)
+        planner_s = time.perf_counter() - began
+        transfer = [
+            {"seed": seed, **_scores(evaluate(load_agent(model), "PPO", episodes, task=task))}
+            for seed, model in zip(seeds, models)
+        ]
+        found[task] = {
+            "dense": dense,
+            "planner": {"name": "CEMPlanner", "wall_s": planner_s, **_scores(planner)},
+            "dense_policies": transfer,
+        }
+    path = out / "learning" / "headroom.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({**found, "commit": commit(), "machine": machine()}, indent=1) + "\n")
+    print(f"wrote {path}", flush=True)
+    return path
 
 
 def load_records(out: Path) -> dict:
@@ -362,6 +401,7 @@ def report(out: Path, quick: bool) -> None:
         for (trainer, task), record in sorted(records.items())
     ]
     total_wall = sum(record["wall_s"] for record in records.values()) / 3600
+    headroom_rows = headroom_table(out, records)
     charts(records, refs, scales, ladder, out)
     sections = [
         "![success and normalized return, per task and over the tasks](learning_iqm.png)",
@@ -383,6 +423,22 @@ def report(out: Path, quick: bool) -> None:
         "Over the tasks (the IQM of every run, a stratified bootstrap interval):",
         "",
         table(["trainer", "tasks", "success", "normalized return"], totals),
+        *(
+            [
+                "",
+                "## Headroom",
+                "",
+                f"The tasks where PPO fails at its budget, trained again with {HEADROOM_TIMES} times that budget, and "
+                "what their dynamics allow: the planner on the exact model "
+                "(`agents.planner.CEMPlanner`, reading the disk's state) and the policies SB3's PPO trained on the "
+                "twin with a dense reward (the same starts, dynamics, observation and success), over the same "
+                "seeded episodes. Success: the IQM over the runs with its 95% bootstrap interval.",
+                "",
+                table(["task", "agent", "steps a run", "runs", "success", "mean return"], headroom_rows),
+            ]
+            if headroom_rows
+            else []
+        ),
         "",
         "## Compute",
         "",
@@ -394,9 +450,32 @@ def report(out: Path, quick: bool) -> None:
             ["trainer", "task", "steps a run", "seeds", "run (min)", "cell (min)", "device", "CPU", "commit"], compute
         ),
     ]
-    command = "python benchmarks/bench_learning.py table" + (" --quick" if quick else "")
-
-    write_markdown("learning", "The learning benchmark: tasks x trainers x seeds", command, sections, out)
+    quick_flag = " --quick" if quick else ""
+    sections += [
+        "",
+        "## How to reproduce",
+        "",
+        f"The whole table (the cells missing or run with other settings, two at once): `python "
+        f"benchmarks/bench_learning.py table{quick_flag}`; one cell: `python benchmarks/bench_learning.py cell --task "
+        f"<task> --trainer <trainer>{quick_flag}` (trainers: {', '.join(f'`{name}`' for name in TRAINERS)}; "
+        "rsl_rl's in a venv of the `[gpu]` extra, rejax's of the `[jax]` extra); the report of the records: `python "
+        f"benchmarks/bench_learning.py report{quick_flag}`. Each cell's record, with every run's scores and learning "
+        "curve, is `learning/<trainer>/<task>.json` beside this page; the passive disk's and the baselines' scores "
+        "are `learning/references.json`.",
+        "",
+        machine(),
+        "",
+        f"Commit: {commit()} (the report's; each cell's record names the commit it ran at).",
+    ]
+    path = out / "learning.md"
+    title = "# The learning benchmark: tasks x trainers x seeds"
+    summary = (
+        "Every task of the ladder, trained by each trainer with its hyperparameter file's budget, 5 seeds a cell "
+        "(10 vmapped for rejax), scored over the same 100 seeded evaluation episodes, with interval estimates "
+        "(`agents/reporting.py`)."
+    )
+    path.write_text("\n".join([title, "", summary, "", *sections]).rstrip() + "\n")
+    print(path.read_text())
 
 
 def charts(records: dict, refs: dict, scales: dict, ladder: list[str], out: Path) -> None:
@@ -482,6 +561,35 @@ def charts(records: dict, refs: dict, scales: dict, ladder: list[str], out: Path
     plt.close(figure)
 
 
+def headroom_table(out: Path, records: dict) -> list[list]:
+    """The rows of the report's headroom section: each trainer's runs of a headroom task at its budget and at
+    :data:`HEADROOM_TIMES` times it, then what ``headroom.json`` holds (the planner, the dense twin's policies)."""
+    path = out / "learning" / "headroom.json"
+    shown = json.loads(path.read_text()) if path.exists() else {}
+    rows = []
+
+    def row(task, agent, steps, runs):
+        success = np.array([run["success"] for run in runs])
+        low, high = reporting.percentile_interval(success)
+        returns = np.mean([run["mean_return"] for run in runs])
+        rows.append(
+            [task, agent, steps, len(runs), f"{reporting.iqm(success):.0%} [{low:.0%}, {high:.0%}]", f"{returns:.1f}"]
+        )
+
+    for task, dense in HEADROOM.items():
+        for trainer in TRAINERS:
+            longer = record_path(out, trainer, task, HEADROOM_TIMES)
+            if (trainer, task) not in records or not longer.exists():
+                continue
+            for times, record in ((1, records[trainer, task]), (HEADROOM_TIMES, json.loads(longer.read_text()))):
+                row(task, f"{TRAINERS[trainer].label}, {times}x its budget", record["budget"], record["runs"])
+        if task in shown:
+            planner = shown[task]["planner"]
+            row(task, f"{planner['name']} on the exact model ({planner['wall_s'] / 60:.0f} min)", "-", [planner])
+            row(task, f"PPO (SB3) trained on {dense}'s dense reward", "-", shown[task]["dense_policies"])
+    return rows
+
+
 def _values(record: dict, scale: tuple, which: str) -> np.ndarray:
     if which == "success":
         return np.array([run["success"] for run in record["runs"]])
@@ -521,10 +629,13 @@ def table_command(out: Path, quick: bool, jobs: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("command", choices=("cell", "table", "report"))
+    parser.add_argument("command", choices=("cell", "table", "headroom", "report"))
     parser.add_argument("--task", choices=list(rd.TASK_IDS))
     parser.add_argument("--trainer", choices=list(TRAINERS))
     parser.add_argument("--seeds", type=int, nargs="+", help="the cell's seeds (default: 0 to the trainer's count)")
+    parser.add_argument(
+        "--times", type=int, default=1, help="cell: this many times the block's budget (default: %(default)s)"
+    )
     parser.add_argument("--jobs", type=int, default=2, help="cells at once (default: %(default)s)")
     parser.add_argument("--quick", action="store_true", help="a smoke run: 2 seeds, 4096 steps, 10 episodes")
     parser.add_argument("--out", type=Path, help="folder of the results (default: benchmarks/results)")
@@ -539,9 +650,11 @@ def main() -> None:
         if (args.trainer, args.task) not in cells():
             parser.error(f"{args.trainer} does not run task {args.task!r} (JAX has no Coulomb contact)")
         seeds = args.seeds or list(range(2 if args.quick else TRAINERS[args.trainer].seeds))
-        run_cell(args.trainer, args.task, seeds, out, args.quick)
+        run_cell(args.trainer, args.task, seeds, out, args.quick, args.times)
     elif args.command == "table":
         table_command(out, args.quick, args.jobs)
+    elif args.command == "headroom":
+        headroom(out, args.quick)
     else:
         report(out, args.quick)
 

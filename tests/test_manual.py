@@ -96,27 +96,6 @@ def _section(text: str, title: str) -> str:
     return text[start : None if end < 0 else end]
 
 
-NUMBER = re.compile(r"(?<![\w.-])\d[\d,]*(?:\.\d+)?(?:e[+-]?\d+)?")
-"""A number as the README writes it: 4.35, 46.015, 2.09e-07, 4,096 (not after a hyphen: AVX-512 is a name)."""
-
-
-def test_every_headline_number_is_in_the_result_file_it_cites():
-    """Each row of the README's headline table cites a committed result file, and every number of the row is written
-    in that file as it is in the README (no number that a run did not produce)."""
-    readme = (ROOT / "README.md").read_text()
-    table = [line for line in _section(readme, "Headline numbers").splitlines() if line.startswith("| ")]
-    rows = [line for line in table[1:] if not line.startswith("| ---")]
-    assert len(rows) >= 5
-    for row in rows:
-        cells = [cell.strip() for cell in row.strip("|").split("|")]
-        sources = re.findall(r"\]\((benchmarks/results/[^)]+\.md)\)", cells[-1])
-        assert sources, f"the headline row {row!r} cites no result file"
-        text = " ".join((ROOT / source).read_text() for source in sources)
-        numbers = [number for cell in cells[:-1] for number in NUMBER.findall(cell.replace("`", ""))]
-        missing = [number for number in numbers if number not in text and number.replace(",", "") not in text]
-        assert not missing, f"the headline row {row!r}: {missing} appear in none of {sources}"
-
-
 def test_the_readme_set_up_commands_are_the_ones_ci_runs():
     """The README's test command is the one ``.ci/run`` runs, and each extra the set-up table installs exists."""
     readme = (ROOT / "README.md").read_text()

@@ -75,6 +75,55 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     | 5 | spin-rate error dphi - dphi* to the cruise speed, dphi* = 2 m/s / r (rad/s) | -100 | 100 |
     | 6 | heading rate dpsi (rad/s) | -100 | 100 |
 
+    ``task="waypoints"`` (bearings as ``goto``'s):
+
+    | Num | Observation | Min | Max |
+    |-----|-------------|-----|-----|
+    | 0 | distance to the next waypoint (m) | -15 | 15 |
+    | 1 | sin of its bearing | -1 | 1 |
+    | 2 | cos of its bearing | -1 | 1 |
+    | 3 | distance to the waypoint after it (the next one's again for the last) (m) | -15 | 15 |
+    | 4 | sin of its bearing | -1 | 1 |
+    | 5 | cos of its bearing | -1 | 1 |
+    | 6 | lean theta (rad) | -pi/2 | pi/2 |
+    | 7 | lean rate dtheta (rad/s) | -100 | 100 |
+    | 8 | spin-rate error dphi - dphi* to the cruise speed, dphi* = 2 m/s / r (rad/s) | -100 | 100 |
+    | 9 | heading rate dpsi (rad/s) | -100 | 100 |
+    | 10 | the fraction of the four waypoints still ahead | -1 | 1 |
+
+    ``task="eight"`` (against the lobe of the next gate, s = +1 counter-clockwise, -1 clockwise):
+
+    | Num | Observation | Min | Max |
+    |-----|-------------|-----|-----|
+    | 0 | radial error to the lobe's circle (m) | -10 | 10 |
+    | 1 | sin of the heading error to the lobe's direction of travel | -1 | 1 |
+    | 2 | cos of the heading error | -1 | 1 |
+    | 3 | lean error theta - s theta* (rad) | -pi | pi |
+    | 4 | lean rate dtheta (rad/s) | -100 | 100 |
+    | 5 | spin-rate error dphi - dphi* (rad/s) | -100 | 100 |
+    | 6 | heading-rate error dpsi - s dpsi* (rad/s) | -100 | 100 |
+    | 7 | target lean s theta* of the steady circle (rad) | -pi/2 | pi/2 |
+    | 8 | sin of the turn left to the next gate | -1 | 1 |
+    | 9 | cos of the turn left to the next gate | -1 | 1 |
+    | 10 | the lobe's gates left after the next, over 3 | -1 | 1 |
+
+    ``task="recovery"`` and ``task="recovery_sparse"``:
+
+    | Num | Observation | Min | Max |
+    |-----|-------------|-----|-----|
+    | 0 | lean theta (rad) | -pi/2 | pi/2 |
+    | 1 | lean rate dtheta (rad/s) | -100 | 100 |
+    | 2 | spin-rate error dphi - dphi* to the target speed, dphi* = 2 m/s / r (rad/s) | -100 | 100 |
+    | 3 | heading rate dpsi (rad/s) | -100 | 100 |
+    | 4 | the fraction of the hold (1 s) the disk has been upright | -1 | 1 |
+
+    ``task="ice"``: ``goto``'s 7, then:
+
+    | Num | Observation | Min | Max |
+    |-----|-------------|-----|-----|
+    | 7 | slip velocity of the contact point along the rolling direction (m/s) | -10 | 10 |
+    | 8 | slip velocity to its left (m/s) | -10 | 10 |
+
     ## Rewards
 
     A weighted sum of named terms, each in [-1, 1] per step, reported flat in ``info["reward_<term>"]`` (as
@@ -86,6 +135,13 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     -min(miss^2, 1) (miss: how far in m the disk would pass from the target rolling straight on), ``speed`` as above
     (to the cruise speed), ``upright`` -min((theta / 0.8)^2, 1), ``effort``, ``reached`` +1 on the step the target
     is reached, ``fallen`` -1 on the step the disk falls or lifts off; weights 1, 0.2, 0.3, 0.5, 0.1, 100, 100.
+    ``waypoints``: ``goto``'s towards the next waypoint, and ``waypoint`` +1 on the step one is passed; weights 1,
+    0.2, 0.3, 0.5, 0.1, 20, 100, 100. ``eight``: ``progress`` along the lobe's direction of travel over the target
+    speed, ``radial``, ``speed``, ``effort``, ``gate`` +1 on the step a gate counts, ``reached``, ``fallen`` (a
+    fall, a lift-off or straying off the course); weights 1, 1, 0.3, 0.1, 10, 100, 100. ``recovery``: ``upright``
+    -min((theta / 1.4)^2, 1), ``rates`` -min((dtheta^2 + dpsi^2) / 4, 1), ``speed``, ``effort``, ``recovered`` +1 on
+    success, ``fallen``; weights 1, 0.2, 0.3, 0.1, 100, 100; ``recovery_sparse``: the same terms, weights 0 but
+    ``recovered`` 1. ``ice``: ``goto``'s and ``grip`` -min((|slip| / 0.1 m/s)^2, 1), weight 0.5.
 
     ## Starting State
 
@@ -93,7 +149,10 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
     dtheta and dpsi in [-0.1, 0.1] rad/s, dphi in [0.8, 1.2] rad/s: slower than the self-stabilizing
     sqrt(g / 3r) = 1.81 rad/s, so a passive disk falls); phi and psi uniform. ``circle``: near a circle of radius R
     drawn from [3, 6] m, tangent to it, vertical and rolling straight at the target speed (2 m/s). ``goto``: as
-    ``upright``, with a target 3 to 8 m away at any bearing from the initial rolling direction. The task
+    ``upright``, with a target 3 to 8 m away at any bearing from the initial rolling direction. ``waypoints``: as
+    ``goto``, four waypoints each 3 to 6 m from the one before. ``eight``: on the figure eight of two circles of
+    radius 2.5 to 3.5 m, at a gate, upright and rolling straight at 2.5 m/s. ``recovery``: on a steady circle at a
+    lean of 0.8 to 1.25 rad either side, turning at 2.5 to 4 rad/s, perturbed. ``ice``: as ``goto``. The task
     modules document every range. ``reset(options={"state": x0})`` starts from an exact state instead (8 numbers, or
     under the ``"sliding"`` and ``"coulomb"`` contacts 8 (rolling) or 10).
 
@@ -104,8 +163,9 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     | reason | when |
     |--------|------|
-    | `FALLEN` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 0.8 rad for ``circle`` and ``goto``) |
-    | `REACHED` | ``goto``: the centre's ground projection came within 0.25 m of the target (a success) |
+    | `FALLEN` | \\|theta\\| > ``fall_lean`` (0.5 rad for ``upright``, 1.4 for ``recovery``, 0.8 for the others) |
+    | `REACHED` | the task's goal (a success): the target, the last waypoint, a whole eight, upright rolling held |
+    | `OFF_COURSE` | ``eight``: more than 1 m from the next gate's circle |
     | `LIFTED_OFF` | the normal force N vanished: rolling on the plane is over (checked at every step) |
     | `SLIPPED` | ``"rolling"`` contact, ``friction_coefficient`` mu set: it needs more, \\|lambda\\| / N > mu |
     | `OUT_OF_DOMAIN` | a fixed-step integrator left the model's domain \\|theta\\| < pi/2 - 0.01 (use ``"dopri5"``) |
@@ -140,28 +200,35 @@ class RollingDiskEnv(gym.Env[np.ndarray, np.ndarray]):
 
     | Parameter | Type | Default | Description |
     |-----------|------|---------|-------------|
-    | `task` | str or Task | `"upright"` | `"upright"`, `"circle"` or `"goto"` (or a `Task` instance) |
+    | `task` | str or Task | `"upright"` | a key of ``rolling_disk_env.TASK_IDS`` (or a `Task` instance) |
     | `actuators` | tuple of str | `("spin", "steer")` | enabled torques; `()` gives a passive disk |
     | `dt` | float | `0.02` | control period, s (also `1 / render_fps`) |
     | `integrator` | str | `"rk4"` | `"euler"`, `"symplectic_euler"`, `"rk4"` or `"dopri5"` (error-controlled) |
     | `substeps` | int | `1` | fixed-step integrator steps per control period |
     | `rtol`, `atol` | float | `1e-6`, `1e-8` | tolerances of `"dopri5"` (relative, absolute) |
     | `friction_coefficient` | float | `None` | mu of the contact (`"rolling"`: the episode ends `SLIPPED` past it) |
-    | `contact` | str | `"rolling"` | `"rolling"`, `"sliding"` (kinetic friction mu; 0: ice) or `"coulomb"` |
+    | `contact` | str | the task's | `"rolling"`, `"sliding"` (kinetic friction mu; 0: ice) or `"coulomb"` (``ice``'s) |
     | `max_spin_torque` | float | `5.0` | torque of action +1 on spin, N m |
     | `max_steer_torque` | float | `10.0` | torque of action +1 on steer, N m |
     | `params` | DiskParams | `DiskParams()` | mass 5 kg, radius 1 m, gravity 9.81 m/s^2 |
-    | `params_ranges` | dict | `None` | per-episode uniform ranges, e.g. `{"mass": (4, 6), "radius": (0.8, 1.2)}` |
+    | `params_ranges` | dict | `None` | per-episode ranges of mass, gravity, radius, friction_coefficient (see below) |
     | `initial_ranges` | dict | `None` | overrides of the task's initial-state ranges (keys per task) |
     | `task_options` | dict | `None` | the task's arguments (`target_speed`, `reward_weights`, `fall_lean`, ...) |
     | `render_mode` | str | `None` | `"human"` or `"rgb_array"` |
+
+    ``params_ranges`` draws each episode's disk uniformly from ``(low, high)`` ranges, keyed ``"mass"`` (kg),
+    ``"gravity"`` (m/s^2), ``"radius"`` (m) and, under the ``"sliding"`` and ``"coulomb"`` contacts,
+    ``"friction_coefficient"`` (in [0, sqrt(5)/2)); a bad key or range raises ``ValueError`` naming it. The drawn values
+    are in ``info`` under those keys, at the reset and at every step of the episode (in ``final_info`` too).
 
     ## Version History
 
     * v0: initial version; the compiled engine (numba) computes the same transitions as before to within the
       rounding of its sine and cosine; flat ``reward_<term>`` info keys, the contact limits and ``"dopri5"`` added;
       every info key at every step, ``info["termination"]`` a ``Termination`` code (it was a name, on terminal steps
-      only); ``contact=`` (``"sliding"``, ``"coulomb"``) with ``info["sliding"]`` and ``info["slip_velocity"]``.
+      only); ``contact=`` (``"sliding"``, ``"coulomb"``) with ``info["sliding"]`` and ``info["slip_velocity"]``; the
+      tasks ``waypoints``, ``eight``, ``recovery``, ``recovery_sparse`` and ``ice``, ``Termination.OFF_COURSE``, the
+      friction coefficient in ``params_ranges`` and the drawn constants in ``info``.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 50}

@@ -1,0 +1,143 @@
+"""The figures the README and the manual quote are their result files', and the results describe today's settings.
+
+A figure quoted from a benchmark is written as a link to its result file whose title names the table cell it comes
+from, ``[31.7M](benchmarks/results/env_speed.md "host / 4096 | upright M steps/s")``: the address ``[section / ]row |
+column[ #n]``, the ``n``-th number (1 by default) of the cell in the row whose first cell is ``row`` and the column
+headed ``column``, in the first table under a heading that holds ``section``, where one is given. The tests here
+find every such link in the README and the manual's pages and compare the figure with the cell at the precision the
+page prints; every number of the README's task and headline tables must be such a link. Each result file records
+the commit it ran at (``Commit:``), and a file whose results follow the repository's settings (the hyperparameters of
+the learning benchmark's cells, the main job's block) records a hash of them, which must be today's.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+RESULTS = ROOT / "benchmarks" / "results"
+NUMBER = re.compile(r"(?<![\w.-])-?\d[\d,]*(?:\.\d+)?(?:e[+-]?\d+)?")
+"""A number as the pages write it: 4.35, 46.015, 2.09e-07, 4,096, -131.4 (not after a hyphen: AVX-512 is a name)."""
+TIED = re.compile(r'\[([^\]]+)\]\(([^)\s]+\.md)(?:#[^)\s]*)? "([^"]+)"\)')
+"""A tied figure: ``[figure](path/to/result.md "address")``."""
+PAGES = [ROOT / "README.md", *(path for path in DOCS.rglob("*.md") if "results" not in path.relative_to(DOCS).parts)]
+"""The pages that quote results: the README and the manual's own pages (not the result files it shows)."""
+
+
+def _plain(cell: str) -> str:
+    """A table cell's text without its Markdown: links' text, no backticks or emphasis."""
+    return re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", cell).replace("`", "").replace("*", "").strip()
+
+
+def tables(text: str) -> list[tuple[str, list[list[str]]]]:
+    """The Markdown tables of ``text``: (the last heading before each, its rows of cells, header first)."""
+    found, heading, rows = [], "", []
+    for line in [*text.splitlines(), ""]:
+        if line.startswith("|"):
+            if not re.match(r"^\|\s*-{3}", line):
+                rows.append([_plain(cell) for cell in line.strip().strip("|").split("|")])
+            continue
+        if rows:
+            found.append((heading, rows))
+            rows = []
+        if line.startswith("#"):
+            heading = line
+    return found
+
+
+def result_cell(path: Path, address: str) -> str:
+    """The number a tied figure's ``address`` names in the result file ``path``, as the file writes it."""
+    address, _, index = address.partition(" #")
+    section, _, cell = address.rpartition(" / ")
+    row_key, _, column = (part.strip() for part in cell.partition(" | "))
+    for heading, rows in tables(path.read_text()):
+        if (section and section not in heading) or column not in rows[0]:
+            continue
+        for row in rows[1:]:
+            if row[0] == row_key:
+                numbers = NUMBER.findall(row[rows[0].index(column)].replace("`", ""))
+                assert len(numbers) >= int(index or 1), f"{path.name}: the cell {address!r} holds {numbers}"
+                return numbers[int(index or 1) - 1]
+    raise AssertionError(f"{path.name} has no cell {address!r}")
+
+
+def value(number: str) -> tuple[float, int]:
+    """A number's value and the decimals it is written with."""
+    plain = number.replace(",", "")
+    mantissa = plain.split("e")[0]
+    return float(plain), len(mantissa.split(".")[1]) if "." in mantissa else 0
+
+
+def tied_figures() -> list[tuple[Path, str, Path, str]]:
+    """Every tied figure of :data:`PAGES`: (page, its text, the result file, the address)."""
+    return [
+        (page, text, (page.parent / target).resolve(), address)
+        for page in PAGES
+        for text, target, address in TIED.findall(page.read_text())
+    ]
+
+
+def test_every_tied_figure_equals_its_result_cell_at_its_precision():
+    figures = tied_figures()
+    assert len(figures) >= 10
+    for page, text, result, address in figures:
+        assert result.is_relative_to(RESULTS.resolve()) and result.exists(), f"{page.name}: {result}"
+        quoted = NUMBER.findall(text.replace("`", ""))
+        assert quoted, f"{page.name}: the tied figure {text!r} holds no number"
+        figure, decimals = value(quoted[0])
+        cell, _ = value(result_cell(result, address))
+        assert round(cell, decimals) == figure, f"{page.name}: {text!r} against {result.name} {address!r}: {cell}"
+
+
+def _section(text: str, title: str) -> str:
+    start = text.index(f"## {title}\n")
+    end = text.find("\n## ", start + 1)
+    return text[start : None if end < 0 else end]
+
+
+def test_the_readmes_tables_of_results_quote_only_tied_figures():
+    """Every number of the README's headline table, and of the task table's columns of scores, is a tied figure."""
+    readme = (ROOT / "README.md").read_text()
+    for title, first_quoted in (("The tasks", 3), ("Headline figures", 1)):
+        rows = [line for line in _section(readme, title).splitlines() if line.startswith("| ")]
+        assert len(rows) >= 4, title
+        for line in rows[2:]:
+            cells = line.strip().strip("|").split("|")[first_quoted:]
+            for cell in cells:
+                untied = re.sub(r"\]\([^)]*\)", "]", TIED.sub("", cell))
+                assert not NUMBER.findall(untied.replace("`", "")), f"{title}: an untied figure in {cell!r}"
+
+
+def test_every_result_file_names_its_commit():
+    files = sorted(RESULTS.rglob("*.md"))
+    missing = [path.name for path in files if not re.search(r"^Commit: [0-9a-f]{7}", path.read_text(), re.M)]
+    assert not missing, f"result files that do not name the commit they ran at: {missing}"
+
+
+def _benchmarks():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import _common
+        import bench_learning
+    finally:
+        sys.path.pop(0)
+    return _common, bench_learning
+
+
+def test_every_result_describes_todays_settings():
+    """A learning cell's hash of its block and evaluation, and the main job's of its block, are today's: a result
+    from older hyperparameters is flagged until it runs again."""
+    common, learning = _benchmarks()
+    records = sorted((RESULTS / "learning").glob("*/*.json"))
+    assert records
+    for path in records:
+        record = json.loads(path.read_text())
+        today = learning.settings_hash(record["trainer"], record["task"])
+        assert record["settings_hash"] == today, f"{path.relative_to(RESULTS)} ran with other settings: run its cell"
+    main_job = (RESULTS / "main_job.md").read_text()
+    written = re.search(r"^Settings: sha256 ([0-9a-f]{64})", main_job, re.M)
+    assert written and written.group(1) == common.main_job_settings(), "main_job.md ran with other settings"
