@@ -4,9 +4,9 @@ Commands (``python benchmarks/bench_learning.py <command> ...``):
 
 * ``cell --task T --trainer X [--seeds S ...] [--times K]``: trains one cell, trainer X on task T, once per seed, and
   writes its record, ``<out>/learning/<X>/<T>.json`` (with K times the block's budget: ``<T>_x<K>.json``);
-* ``table [--jobs 2]``: every cell whose record is missing (or describes other settings), then ``report``; the trainers
-  whose library is not installed here are named with the command that runs them (rsl_rl's in a venv of the ``[gpu]``
-  extra, rejax's of the ``[jax]`` extra);
+* ``table [--jobs 2] [--tasks T ...]``: every cell whose record is missing (or describes other settings), then
+  ``report``; the trainers whose library is not installed here are named with the command that runs them (rsl_rl's in
+  a venv of the ``[gpu]`` extra, rejax's of the ``[jax]`` extra);
 * ``headroom``: what the headroom task allows (:func:`headroom`), ``<out>/learning/headroom.json``;
 * ``report``: the report of the records there are: ``<out>/learning.md`` (the manual's page of the learning
   benchmark: its charts, its table, then how to reproduce it) and its charts.
@@ -265,13 +265,13 @@ RUNNERS = {"sb3-ppo": _run_sb3("ppo"), "sb3-sac": _run_sb3("sac"), "rsl_rl-ppo":
 
 def references(out: Path, quick: bool) -> dict:
     """The passive disk's and the classical baseline's scores per task (``<out>/learning/references.json``, computed
-    once: they do not learn)."""
+    once a task: they do not learn)."""
     path = out / "learning" / "references.json"
-    if path.exists():
-        return json.loads(path.read_text())
+    found = json.loads(path.read_text()) if path.exists() else {}
+    if all(task in found for task in rd.TASK_IDS):
+        return found
     episodes = 10 if quick else EPISODES
-    found = {}
-    for task in rd.TASK_IDS:
+    for task in (task for task in rd.TASK_IDS if task not in found):
         passive = evaluate(PassiveAgent(), "passive", episodes, task=task)
         baseline = evaluate(BASELINES[task](task=task), BASELINES[task].__name__, episodes, task=task)
         found[task] = {"passive": _scores(passive), "baseline": {"name": BASELINES[task].__name__, **_scores(baseline)}}
@@ -282,9 +282,9 @@ def references(out: Path, quick: bool) -> dict:
 
 def headroom(out: Path, quick: bool) -> Path:
     """Shows what the headroom tasks (:data:`HEADROOM`) allow, where a trainer's PPO fails: the planner on the exact
-    model (:class:`agents.planner.CEMPlanner`) and the policies SB3's PPO trained on the twin with a dense reward (its
-    cell's runs, which must have run here), each over the evaluation's seeded episodes; writes
-    ``<out>/learning/headroom.json``."""
+    model (:class:`agents.planner.CEMPlanner`, planning with the dense twin's reward) and the policies SB3's PPO
+    trained on the twin (its cell's runs, which must have run here), each over the evaluation's seeded episodes;
+    writes ``<out>/learning/headroom.json``."""
     from agents.evaluate import load_agent
     from agents.planner import CEMPlanner, evaluate_planner
 
@@ -300,7 +300,9 @@ def headroom(out: Path, quick: bool) -> Path:
                 f"cell --task {dense} --trainer sb3-ppo{' --quick' if quick else ''} first"
             )
         began = time.perf_counter()
-        planner = evaluate_planner(CEMPlanner(task=task), "CEMPlanner", episodes)
+        # The planner scores its plans by the reward; the dense twin's episodes are this task's (same seeds, starts
+        # and success rule).
+        planner = evaluate_planner(CEMPlanner(task=dense), "CEMPlanner", episodes)
         planner_s = time.perf_counter() - began
         transfer = [
             {"seed": seed, **_scores(evaluate(load_agent(model), "PPO", episodes, task=task))}
@@ -432,9 +434,9 @@ def report(out: Path, quick: bool) -> None:
                 "what their dynamics allow: the planner on the exact model "
                 "(`agents.planner.CEMPlanner`, reading the disk's state) and the policies SB3's PPO trained on the "
                 "twin with a dense reward (the same starts, dynamics, observation and success), over the same "
-                "seeded episodes. Success: the IQM over the runs with its 95% bootstrap interval.",
+                "seeded episodes. Success: the IQM over the runs (the planner: one) with its 95% bootstrap interval.",
                 "",
-                table(["task", "agent", "steps a run", "runs", "success", "mean return"], headroom_rows),
+                table(["task", "agent", "steps a run", "runs", "success"], headroom_rows),
             ]
             if headroom_rows
             else []
@@ -571,10 +573,7 @@ def headroom_table(out: Path, records: dict) -> list[list]:
     def row(task, agent, steps, runs):
         success = np.array([run["success"] for run in runs])
         low, high = reporting.percentile_interval(success)
-        returns = np.mean([run["mean_return"] for run in runs])
-        rows.append(
-            [task, agent, steps, len(runs), f"{reporting.iqm(success):.0%} [{low:.0%}, {high:.0%}]", f"{returns:.1f}"]
-        )
+        rows.append([task, agent, steps, len(runs), f"{reporting.iqm(success):.0%} [{low:.0%}, {high:.0%}]"])
 
     for task, dense in HEADROOM.items():
         for trainer in TRAINERS:
@@ -585,7 +584,13 @@ def headroom_table(out: Path, records: dict) -> list[list]:
                 row(task, f"{TRAINERS[trainer].label}, {times}x its budget", record["budget"], record["runs"])
         if task in shown:
             planner = shown[task]["planner"]
-            row(task, f"{planner['name']} on the exact model ({planner['wall_s'] / 60:.0f} min)", "-", [planner])
+            minutes = planner["wall_s"] / 60
+            row(
+                task,
+                f"{planner['name']} on the exact model, planning with {dense}'s reward ({minutes:.1f} min)",
+                "-",
+                [planner],
+            )
             row(task, f"PPO (SB3) trained on {dense}'s dense reward", "-", shown[task]["dense_policies"])
     return rows
 
@@ -596,10 +601,11 @@ def _values(record: dict, scale: tuple, which: str) -> np.ndarray:
     return reporting.normalized([run["mean_return"] for run in record["runs"]], scale[0], scale[1])
 
 
-def table_command(out: Path, quick: bool, jobs: int) -> None:
-    """Runs every missing (or stale) cell whose trainer is installed, ``jobs`` at once, then :func:`report`."""
+def table_command(out: Path, quick: bool, jobs: int, tasks: list[str]) -> None:
+    """Runs every missing (or stale) cell of ``tasks`` whose trainer is installed, ``jobs`` at once, then
+    :func:`report`."""
     pending, skipped = [], []
-    for trainer, task in cells():
+    for trainer, task in (cell for cell in cells() if cell[1] in tasks):
         path = record_path(out, trainer, task)
         current = path.exists() and json.loads(path.read_text())["settings_hash"] == settings_hash(trainer, task)
         if current:
@@ -630,7 +636,10 @@ def table_command(out: Path, quick: bool, jobs: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("command", choices=("cell", "table", "headroom", "report"))
-    parser.add_argument("--task", choices=list(rd.TASK_IDS))
+    parser.add_argument("--task", choices=list(rd.TASK_IDS), help="cell: the task")
+    parser.add_argument(
+        "--tasks", choices=list(rd.TASK_IDS), nargs="+", help="table: only these tasks' cells (default: every task)"
+    )
     parser.add_argument("--trainer", choices=list(TRAINERS))
     parser.add_argument("--seeds", type=int, nargs="+", help="the cell's seeds (default: 0 to the trainer's count)")
     parser.add_argument(
@@ -652,7 +661,7 @@ def main() -> None:
         seeds = args.seeds or list(range(2 if args.quick else TRAINERS[args.trainer].seeds))
         run_cell(args.trainer, args.task, seeds, out, args.quick, args.times)
     elif args.command == "table":
-        table_command(out, args.quick, args.jobs)
+        table_command(out, args.quick, args.jobs, args.tasks or list(rd.TASK_IDS))
     elif args.command == "headroom":
         headroom(out, args.quick)
     else:
