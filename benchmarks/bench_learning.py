@@ -37,6 +37,7 @@ import argparse
 import json
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import time
@@ -111,6 +112,12 @@ def settings_hash(trainer: str, task: str, times: int = 1) -> str:
     return common_hash(settings if times == 1 else {**settings, "times": times})
 
 
+def runs_folder(quick: bool) -> Path:
+    """Where the runs' folders go (their models and logs; not committed): ``runs/bench_learning``, for ``--quick``
+    its ``quick`` folder."""
+    return RUNS / "quick" if quick else RUNS
+
+
 def record_path(out: Path, trainer: str, task: str, times: int = 1) -> Path:
     """A cell's record: ``<task>.json``, or ``<task>_x<times>.json`` for a multiple of its budget."""
     return out / "learning" / trainer / (f"{task}.json" if times == 1 else f"{task}_x{times}.json")
@@ -169,11 +176,13 @@ def _run_sb3(algo: str):
             def listen(steps, mean_return, success, curve=curve, began=began):
                 curve.append([steps, time.perf_counter() - began, mean_return, success])
 
+            out = runs_folder(quick) / f"sb3-{algo}" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
+            shutil.rmtree(out, ignore_errors=True)  # a run's logs are its own
             results = train(
                 task,
                 algo,
                 hyperparams,
-                RUNS / f"sb3-{algo}" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}",
+                out,
                 timesteps=4096 if quick else int(times * hyperparams["n_timesteps"]),
                 seed=seed,
                 eval_episodes=10 if quick else EPISODES,
@@ -197,7 +206,8 @@ def _run_rsl_rl(task: str, seeds: list[int], quick: bool, times: int) -> list[di
     budget = hyperparams["num_envs"] * hyperparams["num_steps_per_env"] * hyperparams["max_iterations"]
     runs = []
     for seed in seeds:
-        out = RUNS / "rsl_rl-ppo" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
+        out = runs_folder(quick) / "rsl_rl-ppo" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
+        shutil.rmtree(out, ignore_errors=True)  # its TensorBoard log is the run's curve
         began, cpu_began = time.perf_counter(), _cpu_seconds()
         results = train_on_device(
             task,
@@ -293,7 +303,7 @@ def headroom(out: Path, quick: bool) -> Path:
     for task, dense in HEADROOM.items():
         twin = record_path(out, "sb3-ppo", dense)
         seeds = [run["seed"] for run in json.loads(twin.read_text())["runs"]] if twin.exists() else []
-        models = [RUNS / "sb3-ppo" / f"{dense}_{seed}" / "model.zip" for seed in seeds]
+        models = [runs_folder(quick) / "sb3-ppo" / f"{dense}_{seed}" / "model.zip" for seed in seeds]
         if not seeds or not all(model.exists() for model in models):
             raise SystemExit(
                 f"the runs of the dense twin {dense!r} are missing here: run python benchmarks/bench_learning.py "
@@ -649,7 +659,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="a smoke run: 2 seeds, 4096 steps, 10 episodes")
     parser.add_argument("--out", type=Path, help="folder of the results (default: benchmarks/results)")
     args = parser.parse_args()
-    out = args.out or (RUNS / "quick" if args.quick else RESULTS)
+    out = args.out or (runs_folder(True) if args.quick else RESULTS)
     from agents import show_compiling
 
     show_compiling()
