@@ -138,7 +138,7 @@ def child(code: str, args: list[str], root: Path, python: str = sys.executable) 
 
 
 def name_of(kwargs: dict) -> str:
-    contact = kwargs.get("contact", "rolling")
+    contact = kwargs.get("contact") or TASK_CLASSES[kwargs["task"]].contact or "rolling"
     return f"{kwargs['task']}, {contact}, {kwargs.get('integrator', 'rk4')}"
 
 

@@ -1,13 +1,15 @@
 """The figures the README and the manual quote are their result files', and the results describe today's settings.
 
 A figure quoted from a benchmark is written as a link to its result file whose title names the table cell it comes
-from, ``[31.7M](benchmarks/results/env_speed.md "host / 4096 | upright M steps/s")``: the address ``[section / ]row |
-column[ #n]``, the ``n``-th number (1 by default) of the cell in the row whose first cell is ``row`` and the column
-headed ``column``, in the first table under a heading that holds ``section``, where one is given. The tests here
-find every such link in the README and the manual's pages and compare the figure with the cell at the precision the
-page prints; every number of the README's task and headline tables must be such a link. Each result file records
-the commit it ran at (``Commit:``), and a file whose results follow the repository's settings (the hyperparameters of
-the learning benchmark's cells, the main job's block) records a hash of them, which must be today's.
+from, ``[31.7M](benchmarks/results/env_speed.md "host / 4096 > upright M steps/s")``: the address ``[section / ]row
+> column[ #n]`` (no ``|``, which would split a Markdown table's cell), the ``n``-th number (1 by default) of the
+cell in the row whose first cell is ``row`` (or whose first cells are ``a & b & ...``) and the column headed
+``column``, in the first table under a heading that holds ``section``, where one is given, and with that column. The
+tests here find every such link in the README and the manual's pages and compare the figure with the cell at the
+precision the page prints; every number of the README's task and headline tables must be such a link. Each result
+file records the commit it ran at (``Commit:``), and a file whose results follow the repository's settings (the
+hyperparameters of the learning benchmark's cells, the main job's block) records a hash of them, which must be
+today's.
 """
 
 from __future__ import annotations
@@ -52,30 +54,32 @@ def tables(text: str) -> list[tuple[str, list[list[str]]]]:
 def result_cell(path: Path, address: str) -> str:
     """The number a tied figure's ``address`` names in the result file ``path``, as the file writes it."""
     address, _, index = address.partition(" #")
-    section, _, cell = address.rpartition(" / ")
-    row_key, _, column = (part.strip() for part in cell.partition(" | "))
+    place, _, column = (part.strip() for part in address.partition(" > "))
+    section, _, row_key = place.rpartition(" / ")
+    keys = row_key.split(" & ")
     for heading, rows in tables(path.read_text()):
         if (section and section not in heading) or column not in rows[0]:
             continue
         for row in rows[1:]:
-            if row[0] == row_key:
+            if row[: len(keys)] == keys:
                 numbers = NUMBER.findall(row[rows[0].index(column)].replace("`", ""))
                 assert len(numbers) >= int(index or 1), f"{path.name}: the cell {address!r} holds {numbers}"
                 return numbers[int(index or 1) - 1]
     raise AssertionError(f"{path.name} has no cell {address!r}")
 
 
-def value(number: str) -> tuple[float, int]:
-    """A number's value and the decimals it is written with."""
+def printed(cell: float, number: str) -> float:
+    """``cell`` at the precision ``number`` is written with: its decimals, or its mantissa's in ``2.09e-07``."""
     plain = number.replace(",", "")
     mantissa = plain.split("e")[0]
-    return float(plain), len(mantissa.split(".")[1]) if "." in mantissa else 0
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    return float(f"{cell:.{decimals}e}") if "e" in plain else round(cell, decimals)
 
 
 def tied_figures() -> list[tuple[Path, str, Path, str]]:
     """Every tied figure of :data:`PAGES`: (page, its text, the result file, the address)."""
     return [
-        (page, text, (page.parent / target).resolve(), address)
+        (page, text, (page.parent / target).resolve(), " ".join(address.split()))  # a title may wrap
         for page in PAGES
         for text, target, address in TIED.findall(page.read_text())
     ]
@@ -88,9 +92,9 @@ def test_every_tied_figure_equals_its_result_cell_at_its_precision():
         assert result.is_relative_to(RESULTS.resolve()) and result.exists(), f"{page.name}: {result}"
         quoted = NUMBER.findall(text.replace("`", ""))
         assert quoted, f"{page.name}: the tied figure {text!r} holds no number"
-        figure, decimals = value(quoted[0])
-        cell, _ = value(result_cell(result, address))
-        assert round(cell, decimals) == figure, f"{page.name}: {text!r} against {result.name} {address!r}: {cell}"
+        cell = float(result_cell(result, address).replace(",", ""))
+        figure = float(quoted[0].replace(",", ""))
+        assert printed(cell, quoted[0]) == figure, f"{page.name}: {text!r} against {result.name} {address!r}: {cell}"
 
 
 def _section(text: str, title: str) -> str:
