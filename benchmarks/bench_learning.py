@@ -454,9 +454,10 @@ def report(out: Path, quick: bool) -> None:
         "",
         "## Compute",
         "",
-        f"The whole table: {total_wall:.1f} h of wall time on this machine, cells one after the other (two at once on "
-        "the two cores). Per cell: its budget of environment steps (from the trainer's hyperparameter file), seeds, "
-        "the median wall time of a run and the cell's, and where it ran.",
+        f"The whole table: {total_wall:.1f} h of wall time on this machine, its cells in two queues at once, each "
+        "on a core of its own (`taskset -c 0` and `-c 1`) with one thread (`OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1`; "
+        "rejax's XLA on its core). Per cell: its budget of environment steps (from the trainer's hyperparameter "
+        "file), seeds, the median wall time of a run and the cell's, and where it ran.",
         "",
         table(
             ["trainer", "task", "steps a run", "seeds", "run (min)", "cell (min)", "device", "CPU", "commit"], compute

@@ -16,7 +16,9 @@ The files are plain Python on floats, readable next to the paper, and what numba
 * ``_generated/sliding.py``: the sliding model for one disk (:func:`generate_sliding`), on
   ``x = (c1, c2, phi, theta, psi, dc1, dc2, dphi, dtheta, dpsi)``: its slip velocity, Coulomb's kinetic friction, and
   its derivative and diagnostics (energy, normal force, slip velocity) under a given or the kinetic friction.
-* ``_generated/<task>.py``, one per task of :data:`rolling_disk_env.tasks.TASKS`: for each integrator, the fused step
+* ``_generated/<task>.py``, one per task of :data:`rolling_disk_env.tasks.TASKS` that runs steps of its own (not one
+  whose ``steps_of`` names another's, as ``recovery_sparse`` runs ``recovery``'s): for each integrator and each set of
+  outputs (:data:`rolling_disk_env.constants.INFO_SETS`), the fused step
   of a share of a batch of disks through a control period, in loops over the disks that the compiler vectorizes
   (the action's torques; integration and domain check; contact checks and the task's termination,
   :data:`CHECKS_TEMPLATE`; reward terms, success and observation, :data:`OUTPUTS_LOOP`), and the reset, written

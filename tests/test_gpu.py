@@ -15,6 +15,7 @@ import pytest
 import torch
 from gymnasium.vector import AutoresetMode
 
+import rolling_disk_env as rd
 from tests.test_torch_env import _assert_close, _assert_infos_close, make, paired_rollout
 
 SIMULATED = os.environ.get("NUMBA_ENABLE_CUDASIM") == "1"
@@ -39,6 +40,33 @@ CONTACTS = {
 @pytest.mark.parametrize("task", ["upright", "circle", "goto"])
 def test_every_task_and_contact_follows_the_cpu(task, contact):
     paired_rollout("cuda", AutoresetMode.NEXT_STEP, RTOL, task=task, **CONTACTS[contact])
+
+
+@pytest.mark.parametrize("task", [task for task in rd.TASK_IDS if task not in ("upright", "circle", "goto")])
+def test_every_task_of_the_ladder_follows_the_cpu(task):
+    """The ladder's later tasks, each under its own contact (``ice``: Coulomb's), their task state included (the
+    goals and progress that the step updates, in the observation and the rewards)."""
+    paired_rollout("cuda", AutoresetMode.NEXT_STEP, RTOL, task=task)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"task": "goto", "params_ranges": {"mass": (2.0, 8.0), "gravity": (5.0, 15.0), "radius": (0.5, 1.5)}},
+        {"task": "ice", "params_ranges": {"friction_coefficient": (0.05, 0.6), "mass": (3.0, 7.0)}},
+    ],
+    ids=["goto-m-g-r", "ice-friction"],
+)
+def test_randomized_disks_are_the_cpus_from_the_same_seed(kwargs):
+    """``params_ranges`` on the GPU: the same seed draws the same disks as the CPU vector env (the drawn values in
+    ``info`` and ``final_info``, compared with the rest) and they move the same (same-step autoreset: each new
+    episode's disk drawn after the last one's outputs are kept)."""
+    paired_rollout("cuda", AutoresetMode.SAME_STEP, RTOL, **kwargs)
+    envs = make(8, device="cuda", **kwargs)
+    info = envs.reset(seed=3)[1]
+    for name, (low, high) in kwargs["params_ranges"].items():
+        drawn = info[name].cpu().numpy()
+        assert np.all((low <= drawn) & (drawn <= high)) and np.unique(drawn).size == 8, name
 
 
 @pytest.mark.parametrize("mode", [AutoresetMode.SAME_STEP, AutoresetMode.DISABLED], ids=lambda mode: mode.value)

@@ -19,6 +19,8 @@ import re
 import sys
 from pathlib import Path
 
+from tests.test_manual import _section
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 RESULTS = ROOT / "benchmarks" / "results"
@@ -95,12 +97,6 @@ def test_every_tied_figure_equals_its_result_cell_at_its_precision():
         cell = float(result_cell(result, address).replace(",", ""))
         figure = float(quoted[0].replace(",", ""))
         assert printed(cell, quoted[0]) == figure, f"{page.name}: {text!r} against {result.name} {address!r}: {cell}"
-
-
-def _section(text: str, title: str) -> str:
-    start = text.index(f"## {title}\n")
-    end = text.find("\n## ", start + 1)
-    return text[start : None if end < 0 else end]
 
 
 def test_the_readmes_tables_of_results_quote_only_tied_figures():
