@@ -71,8 +71,11 @@ def normalization(passive: float, baseline: float, best: float) -> tuple[float, 
     """The task's scale of returns: from the passive disk's mean return (0) to the classical baseline's (1) where the
     baseline beats the passive disk by at least a tenth of the range the agents span (from the passive disk to the best
     of the baseline and the agents, ``best`` being the agents' best mean return); else to the best agent's. Returns
-    ``(low, high, reference)``, the reference ``"baseline"`` or ``"best agent"``."""
+    ``(low, high, reference)``, the reference ``"baseline"`` or ``"best agent"`` (where nothing beats the passive
+    disk, ``"none beats the passive disk"`` and a unit range above it)."""
     span = max(baseline, best) - passive
+    if span <= 0:  # nothing does better than the passive disk: a scale of its own return's units
+        return passive, passive + 1.0, "none beats the passive disk"
     if baseline - passive >= 0.1 * span:
         return passive, baseline, "baseline"
     return passive, best, "best agent"

@@ -11,7 +11,8 @@ Commands (``python benchmarks/bench_learning.py <command> ...``):
 * ``report``: the report of the records there are: ``<out>/learning.md`` (the manual's page of the learning
   benchmark: its charts, its table, then how to reproduce it) and its charts.
 
-``--quick`` (any command) is a smoke run in another folder: two seeds, 4,096 steps, 10 evaluation episodes.
+``--quick`` (any command) is a smoke run in another folder: two seeds, 4,096 steps (rsl_rl: one iteration of its 4,096
+disks x 16 steps), times ``--times``, 10 evaluation episodes.
 
 Trainers (:data:`TRAINERS`): SB3's PPO and SAC (``agents.training.train``, what ``train.py`` runs), rsl_rl's PPO on
 the torch vector env over the CPU engine (``agents.device_training``, ``train.py --device cpu``) and rejax's PPO
@@ -21,7 +22,7 @@ with its hyperparameter file's block of the task, whose budget of environment st
 Gymnasium vector env, deterministic actions; its success rate and mean return are the run's scores. A cell's record
 holds every run's scores, its learning curve (the trainer's periodic evaluations against environment steps and wall
 time), its wall and CPU time, the machine, the device, the commit, and a hash of the settings it ran with (the block,
-the evaluation): ``tests/test_learning_results.py`` flags a record whose settings are no longer the files'.
+the evaluation): ``tests/test_results.py`` flags a record whose settings are no longer the files'.
 
 The report (:mod:`agents.reporting`): per cell the interquartile mean (IQM) over the runs with a 95% percentile
 bootstrap interval, of the success rate and of the return normalized per task from the passive disk (0) to the
@@ -34,6 +35,7 @@ steps, and labelled so).
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import resource
@@ -99,9 +101,9 @@ def block(trainer: str, task: str) -> dict:
     return load_hyperparams(HYPERPARAMS / TRAINERS[trainer].file, rd.TASK_IDS[task])
 
 
-def settings_hash(trainer: str, task: str, times: int = 1) -> str:
+def settings_hash(trainer: str, task: str, times: int = 1, quick: bool = False) -> str:
     """The sha256 of what a cell's runs depend on but the code: its block, the evaluation's episodes and seeds (and
-    the multiple of the block's budget, where it is not 1)."""
+    the multiple of the block's budget, where it is not 1; and ``quick``, which shortens both)."""
     settings = {
         "trainer": trainer,
         "task": task,
@@ -109,13 +111,14 @@ def settings_hash(trainer: str, task: str, times: int = 1) -> str:
         "episodes": EPISODES,
         "seed": EVAL_SEED,
     }
-    return common_hash(settings if times == 1 else {**settings, "times": times})
+    settings = settings if times == 1 else {**settings, "times": times}
+    return common_hash({**settings, "quick": True} if quick else settings)
 
 
-def runs_folder(quick: bool) -> Path:
-    """Where the runs' folders go (their models and logs; not committed): ``runs/bench_learning``, for ``--quick``
-    its ``quick`` folder."""
-    return RUNS / "quick" if quick else RUNS
+def runs_folder(out: Path) -> Path:
+    """Where the runs' folders go (their models and logs; not committed): ``runs/bench_learning`` for the committed
+    results' cells, ``<out>/runs`` for those of another ``--out``."""
+    return RUNS if out.resolve() == RESULTS.resolve() else out / "runs"
 
 
 def record_path(out: Path, trainer: str, task: str, times: int = 1) -> Path:
@@ -126,14 +129,14 @@ def record_path(out: Path, trainer: str, task: str, times: int = 1) -> Path:
 def run_cell(trainer: str, task: str, seeds: list[int], out: Path, quick: bool, times: int = 1) -> Path:
     """Trains a cell once per seed (with ``times`` its block's budget) and writes its record."""
     started = time.time()
-    runs = RUNNERS[trainer](task, seeds, quick, times)
+    runs = RUNNERS[trainer](task, seeds, quick, times, runs_folder(out))
     record = {
         "trainer": trainer,
         "task": task,
         "budget": runs[0]["steps"],
         "budget_times": times,
         "episodes": 10 if quick else EPISODES,
-        "settings_hash": settings_hash(trainer, task, times),
+        "settings_hash": settings_hash(trainer, task, times, quick),
         "commit": commit(),
         "machine": machine(),
         "cpu": cpu(),
@@ -164,7 +167,7 @@ def _cpu_seconds() -> float:
 
 
 def _run_sb3(algo: str):
-    def run(task: str, seeds: list[int], quick: bool, times: int) -> list[dict]:
+    def run(task: str, seeds: list[int], quick: bool, times: int, folder: Path) -> list[dict]:
         from agents.training import train
 
         hyperparams = block(f"sb3-{algo}", task)
@@ -176,14 +179,14 @@ def _run_sb3(algo: str):
             def listen(steps, mean_return, success, curve=curve, began=began):
                 curve.append([steps, time.perf_counter() - began, mean_return, success])
 
-            out = runs_folder(quick) / f"sb3-{algo}" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
+            out = folder / f"sb3-{algo}" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
             shutil.rmtree(out, ignore_errors=True)  # a run's logs are its own
             results = train(
                 task,
                 algo,
                 hyperparams,
                 out,
-                timesteps=4096 if quick else int(times * hyperparams["n_timesteps"]),
+                timesteps=times * (4096 if quick else int(hyperparams["n_timesteps"])),
                 seed=seed,
                 eval_episodes=10 if quick else EPISODES,
                 progress_bar=False,
@@ -199,14 +202,14 @@ def _run_sb3(algo: str):
     return run
 
 
-def _run_rsl_rl(task: str, seeds: list[int], quick: bool, times: int) -> list[dict]:
+def _run_rsl_rl(task: str, seeds: list[int], quick: bool, times: int, folder: Path) -> list[dict]:
     from agents.device_training import train_on_device
 
     hyperparams = block("rsl_rl-ppo", task)
     budget = hyperparams["num_envs"] * hyperparams["num_steps_per_env"] * hyperparams["max_iterations"]
     runs = []
     for seed in seeds:
-        out = runs_folder(quick) / "rsl_rl-ppo" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
+        out = folder / "rsl_rl-ppo" / f"{task}{'' if times == 1 else f'_x{times}'}_{seed}"
         shutil.rmtree(out, ignore_errors=True)  # its TensorBoard log is the run's curve
         began, cpu_began = time.perf_counter(), _cpu_seconds()
         results = train_on_device(
@@ -214,7 +217,7 @@ def _run_rsl_rl(task: str, seeds: list[int], quick: bool, times: int) -> list[di
             hyperparams,
             out,
             device="cpu",
-            timesteps=4096 * 16 if quick else times * budget,
+            timesteps=times * (4096 * 16 if quick else budget),
             seed=seed,
             eval_episodes=10 if quick else EPISODES,
         )
@@ -247,13 +250,13 @@ def _tensorboard_curve(folder: Path, wall: float, steps: int) -> list[list[float
     ]
 
 
-def _run_rejax(task: str, seeds: list[int], quick: bool, times: int) -> list[dict]:
+def _run_rejax(task: str, seeds: list[int], quick: bool, times: int, folder: Path) -> list[dict]:
     from agents.jax_training import train_seeds_in_jax
 
     hyperparams = block("rejax-ppo", task)
     hyperparams = {**hyperparams, "total_timesteps": times * int(hyperparams["total_timesteps"])}
     if quick:
-        hyperparams = {**hyperparams, "total_timesteps": 4096, "eval_freq": 2048}
+        hyperparams = {**hyperparams, "total_timesteps": times * 4096, "eval_freq": 2048}
     began, cpu_began = time.perf_counter(), _cpu_seconds()
     trained = train_seeds_in_jax(task, hyperparams, seeds)
     steps, every = int(hyperparams["total_timesteps"]), trained["eval_freq"]
@@ -286,7 +289,7 @@ def references(out: Path, quick: bool) -> dict:
         baseline = evaluate(BASELINES[task](task=task), BASELINES[task].__name__, episodes, task=task)
         found[task] = {"passive": _scores(passive), "baseline": {"name": BASELINES[task].__name__, **_scores(baseline)}}
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(found, indent=1) + "\n")
+    path.write_text(json.dumps({**found, "commit": commit(), "machine": machine()}, indent=1) + "\n")
     return found
 
 
@@ -303,7 +306,7 @@ def headroom(out: Path, quick: bool) -> Path:
     for task, dense in HEADROOM.items():
         twin = record_path(out, "sb3-ppo", dense)
         seeds = [run["seed"] for run in json.loads(twin.read_text())["runs"]] if twin.exists() else []
-        models = [runs_folder(quick) / "sb3-ppo" / f"{dense}_{seed}" / "model.zip" for seed in seeds]
+        models = [runs_folder(out) / "sb3-ppo" / f"{dense}_{seed}" / "model.zip" for seed in seeds]
         if not seeds or not all(model.exists() for model in models):
             raise SystemExit(
                 f"the runs of the dense twin {dense!r} are missing here: run python benchmarks/bench_learning.py "
@@ -363,7 +366,7 @@ def report(out: Path, quick: bool) -> None:
         low, high, reference = scales[task]
         ref = refs[task]
         row = [
-            f"[{task}](../../docs/tasks/{task}.md)",
+            task,
             f"{ref['passive']['success']:.0%}",
             f"{ref['baseline']['name']} {ref['baseline']['success']:.0%}",
             reference,
@@ -454,10 +457,11 @@ def report(out: Path, quick: bool) -> None:
         "",
         "## Compute",
         "",
-        f"The whole table: {total_wall:.1f} h of wall time on this machine, its cells in two queues at once, each "
-        "on a core of its own (`taskset -c 0` and `-c 1`) with one thread (`OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1`; "
-        "rejax's XLA on its core). Per cell: its budget of environment steps (from the trainer's hyperparameter "
-        "file), seeds, the median wall time of a run and the cell's, and where it ran.",
+        f"The whole table: {total_wall:.1f} h of compute on this machine (the cells' wall times summed). Its cells ran "
+        "in two queues at once, each pinned to a core of its own with one thread (`OMP_NUM_THREADS=1 "
+        "NUMBA_NUM_THREADS=1`; rejax's XLA on its core), as `table --jobs 2` runs them. Per cell: its budget of "
+        "environment steps (from the trainer's hyperparameter file), seeds, the median wall time of a run and the "
+        "cell's, and where it ran.",
         "",
         table(
             ["trainer", "task", "steps a run", "seeds", "run (min)", "cell (min)", "device", "CPU", "commit"], compute
@@ -472,9 +476,13 @@ def report(out: Path, quick: bool) -> None:
         f"benchmarks/bench_learning.py table{quick_flag}`; one cell: `python benchmarks/bench_learning.py cell --task "
         f"<task> --trainer <trainer>{quick_flag}` (trainers: {', '.join(f'`{name}`' for name in TRAINERS)}; "
         "rsl_rl's in a venv of the `[gpu]` extra, rejax's of the `[jax]` extra); the report of the records: `python "
-        f"benchmarks/bench_learning.py report{quick_flag}`. Each cell's record, with every run's scores and learning "
-        "curve, is `learning/<trainer>/<task>.json` beside this page; the passive disk's and the baselines' scores "
-        "are `learning/references.json`.",
+        f"benchmarks/bench_learning.py report{quick_flag}`. The headroom section: `python benchmarks/bench_learning.py "
+        f"cell --task <task> --trainer sb3-ppo --times {HEADROOM_TIMES}{quick_flag}` for each task of "
+        f"{', '.join(f'`{task}`' for task in HEADROOM)}, then `python benchmarks/bench_learning.py "
+        f"headroom{quick_flag}` (after the dense twin's cell). Each cell's record, with every run's scores and "
+        "learning curve, is `learning/<trainer>/<task>.json` beside this page (`<task>_x<times>.json` for a longer "
+        "budget); the passive disk's and the baselines' scores are `learning/references.json`, the headroom's "
+        "evaluations `learning/headroom.json`.",
         "",
         machine(),
         "",
@@ -614,26 +622,47 @@ def _values(record: dict, scale: tuple, which: str) -> np.ndarray:
 
 def table_command(out: Path, quick: bool, jobs: int, tasks: list[str]) -> None:
     """Runs every missing (or stale) cell of ``tasks`` whose trainer is installed, ``jobs`` at once, then
-    :func:`report`."""
+    :func:`report`; fails naming the cells that failed. With several jobs, each cell's process is pinned to a core
+    of its own (the ``k``-th queue to the ``k``-th core this process may use) with one thread (``OMP_NUM_THREADS=1``,
+    ``NUMBA_NUM_THREADS=1``), so that the cells' wall times are those of one core, not of each other's threads."""
     pending, skipped = [], []
     for trainer, task in (cell for cell in cells() if cell[1] in tasks):
         path = record_path(out, trainer, task)
-        current = path.exists() and json.loads(path.read_text())["settings_hash"] == settings_hash(trainer, task)
+        current = path.exists() and json.loads(path.read_text())["settings_hash"] == settings_hash(
+            trainer, task, quick=quick
+        )
         if current:
             continue
         if find_spec(TRAINERS[trainer].needs) is None:
             skipped.append((trainer, task))
         else:
             pending.append((trainer, task))
-    running: list[subprocess.Popen] = []
+    cores = sorted(os.sched_getaffinity(0))
+    environment = {**os.environ, **({"OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"} if jobs > 1 else {})}
+    running: dict[int, tuple[subprocess.Popen, str, str]] = {}  # by queue
+    failed = []
+
+    def reap(wait: bool) -> None:
+        for queue, (process, trainer, task) in list(running.items()):
+            if (process.wait() if wait else process.poll()) is not None:
+                del running[queue]
+                if process.returncode:
+                    failed.append(f"{trainer} on {task} (exit {process.returncode})")
+
     for trainer, task in pending:
         while len(running) >= jobs:
-            running = [process for process in running if process.poll() is None]
             time.sleep(5)
+            reap(wait=False)
+        queue = min(set(range(jobs)) - set(running))
+        core = {cores[queue % len(cores)]} if jobs > 1 else None
         command = [sys.executable, __file__, "cell", "--task", task, "--trainer", trainer, "--out", str(out)]
-        running.append(subprocess.Popen([*command, *(["--quick"] if quick else [])], env={**os.environ}))
-    for process in running:
-        process.wait()
+        process = subprocess.Popen(
+            [*command, *(["--quick"] if quick else [])],
+            env=environment,
+            preexec_fn=None if core is None else functools.partial(os.sched_setaffinity, 0, core),
+        )
+        running[queue] = (process, trainer, task)
+    reap(wait=True)
     for trainer, task in skipped:
         print(
             f"skipped {trainer} on {task}: {TRAINERS[trainer].needs} is not installed; in a venv of the "
@@ -642,6 +671,8 @@ def table_command(out: Path, quick: bool, jobs: int, tasks: list[str]) -> None:
             flush=True,
         )
     report(out, quick)
+    if failed:
+        raise SystemExit(f"bench_learning.py: cells that failed: {', '.join(failed)}")
 
 
 def main() -> None:
@@ -657,10 +688,12 @@ def main() -> None:
         "--times", type=int, default=1, help="cell: this many times the block's budget (default: %(default)s)"
     )
     parser.add_argument("--jobs", type=int, default=2, help="cells at once (default: %(default)s)")
-    parser.add_argument("--quick", action="store_true", help="a smoke run: 2 seeds, 4096 steps, 10 episodes")
+    parser.add_argument(
+        "--quick", action="store_true", help="a smoke run: 2 seeds, 4096 steps (rsl_rl: 65536), 10 episodes"
+    )
     parser.add_argument("--out", type=Path, help="folder of the results (default: benchmarks/results)")
     args = parser.parse_args()
-    out = args.out or (runs_folder(True) if args.quick else RESULTS)
+    out = args.out or (RUNS / "quick" if args.quick else RESULTS)
     from agents import show_compiling
 
     show_compiling()

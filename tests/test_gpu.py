@@ -10,6 +10,7 @@ bit; a GPU fuses multiply-adds (NVVM's default, with no switch in numba-cuda), s
 import importlib.util
 import os
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch
@@ -47,6 +48,44 @@ def test_every_task_of_the_ladder_follows_the_cpu(task):
     """The ladder's later tasks, each under its own contact (``ice``: Coulomb's), their task state included (the
     goals and progress that the step updates, in the observation and the rewards)."""
     paired_rollout("cuda", AutoresetMode.NEXT_STEP, RTOL, task=task)
+
+
+EVENTS = {
+    "waypoints": ("reward_waypoint", 200),
+    "eight": ("reward_gate", 200),
+    "recovery": ("reward_recovered", 300),
+    "recovery_sparse": ("reward_recovered", 300),
+}
+"""The reward term of each task's progress (a waypoint passed, a gate, the recovery held), and the steps in which the
+task's baseline makes it happen."""
+
+
+@pytest.mark.parametrize("task", list(EVENTS))
+def test_the_task_state_advances_as_on_the_cpu_where_the_baseline_makes_progress(task):
+    """Driven by the task's classical baseline (reading the CPU env's observations; both envs take its actions), the
+    disks pass waypoints and gates and recover, so that the step's updates of the task state (the next waypoint or
+    gate, the time held upright) are compared with the CPU's where they happen."""
+    from agents.baselines import BASELINES
+
+    term, steps = EVENTS[task]
+    kwargs = {"num_envs": 16, "vectorization_mode": "vector_entry_point", "task": task}
+    ours = gym.make_vec(rd.ENV_ID, device="cuda", info_keys="full", **kwargs)
+    theirs = gym.make_vec(rd.ENV_ID, **kwargs)
+    ours.reset(seed=5)
+    observations, _ = theirs.reset(seed=5)
+    agent = BASELINES[task](task=task)
+    fired = 0
+    for step in range(steps):
+        actions, _ = agent.predict(observations, deterministic=True)
+        got = ours.step(torch.from_numpy(np.asarray(actions, dtype=np.float32)))
+        want = theirs.step(actions)
+        observations = want[0]
+        for index in range(4):
+            expected = want[index].astype(np.float32) if index == 1 else want[index]
+            _assert_close(got[index], expected, RTOL, f"step {step} output {index}")
+        _assert_infos_close(got[4], want[4], RTOL, f"step {step}")
+        fired += int(np.count_nonzero(want[4][term]))
+    assert fired >= 2, f"{term} fired {fired} times: the task's progress was not exercised"
 
 
 @pytest.mark.parametrize(
@@ -92,10 +131,16 @@ def test_seeds_states_and_partial_resets_as_the_cpu_env():
     np.testing.assert_allclose(got[1]["state"].cpu().numpy()[mask], want[1]["state"][mask], rtol=0.0, atol=10 * RTOL)
 
 
+def _device_done() -> None:
+    """Waits for the device (on a GPU): a step raises the error of an earlier one once the device has done it."""
+    if not SIMULATED:
+        torch.cuda.synchronize()
+
+
 def test_a_non_finite_action_steps_nothing_from_its_step_on_and_the_next_call_raises_naming_it():
     """The device step never waits: the step with the bad action returns (its outputs meaningless), steps no disk, nor
-    does any step after it until the next step() (or reset()) raises, naming the step and the disks; every disk is
-    where it was. Then the env steps again."""
+    does any step after it until a step() after the device has done it (or a reset()) raises, naming the step and
+    the disks; every disk is where it was. Then the env steps again."""
     envs = make(4, device="cuda")
     observations, _ = envs.reset(seed=0)
     good = torch.zeros((4, 2), device=observations.device)
@@ -104,6 +149,7 @@ def test_a_non_finite_action_steps_nothing_from_its_step_on_and_the_next_call_ra
     bad = good.clone()
     bad[2, 1], bad[3, 0] = float("inf"), float("nan")
     envs.step(bad)  # step 2: queued, not waited for
+    _device_done()
     with pytest.raises(ValueError, match=r"step 2 got a non-finite action for 2 sub-environment\(s\), the first 2"):
         envs.step(good)
     np.testing.assert_array_equal(envs.unwrapped._batch.states, before)  # nothing stepped since step 1
@@ -123,6 +169,7 @@ def test_under_disabled_autoreset_stepping_an_ended_disk_raises_at_the_next_call
     while not bool(envs.step(actions)[2].any()):
         steps += 1
     envs.step(actions)  # steps an ended disk: nothing is stepped
+    _device_done()
     with pytest.raises(ValueError, match=rf"have ended and autoreset is disabled.*step {steps + 2} stepped none"):
         envs.step(actions)
 

@@ -46,6 +46,10 @@ def test_the_normalization_puts_the_passive_disk_at_0_and_the_baseline_at_1():
     np.testing.assert_array_equal(reporting.normalized([-130.0, 175.0], low, high), [0.0, 1.0])
     # A baseline barely above the passive disk: the best agent's return is the 1 instead.
     assert reporting.normalization(passive=-100.0, baseline=-95.0, best=300.0) == (-100.0, 300.0, "best agent")
+    # nothing beats the passive disk (a sparse task's zero returns): a finite scale, 0 at the passive disk
+    low, high, reference = reporting.normalization(passive=0.0, baseline=0.0, best=0.0)
+    assert (low, high, reference) == (0.0, 1.0, "none beats the passive disk")
+    assert reporting.normalized([0.0, 0.0], low, high).tolist() == [0.0, 0.0]
 
 
 def test_a_performance_profile_is_the_fraction_of_runs_above_each_threshold():

@@ -136,7 +136,7 @@ def test_every_result_describes_todays_settings():
     assert records
     for path in records:
         record = json.loads(path.read_text())
-        today = learning.settings_hash(record["trainer"], record["task"])
+        today = learning.settings_hash(record["trainer"], record["task"], record["budget_times"])
         assert record["settings_hash"] == today, f"{path.relative_to(RESULTS)} ran with other settings: run its cell"
     main_job = (RESULTS / "main_job.md").read_text()
     written = re.search(r"^Settings: sha256 ([0-9a-f]{64})", main_job, re.M)
