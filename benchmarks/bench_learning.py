@@ -418,6 +418,7 @@ def report(out: Path, quick: bool) -> None:
     total_wall = sum(record["wall_s"] for record in records.values()) / 3600
     headroom_rows = headroom_table(out, records)
     charts(records, refs, scales, ladder, out)
+    missing = sum((trainer, task) not in records for trainer, task in cells())
     sections = [
         "![success and normalized return, per task and over the tasks](learning_iqm.png)",
         "",
@@ -434,6 +435,15 @@ def report(out: Path, quick: bool) -> None:
         "SB3's PPO's success, highest first.",
         "",
         table(header, rows),
+        *(
+            [
+                "",
+                f"`-`: {missing} of the {len(cells())} cells have not run here (a cell's command is under How to "
+                "reproduce; no budget is cut to make the table fit a time).",
+            ]
+            if missing
+            else []
+        ),
         "",
         "Over the tasks (the IQM of every run, a stratified bootstrap interval):",
         "",
@@ -457,7 +467,7 @@ def report(out: Path, quick: bool) -> None:
         "",
         "## Compute",
         "",
-        f"The whole table: {total_wall:.1f} h of compute on this machine (the cells' wall times summed). Its cells ran "
+        f"The cells here: {total_wall:.1f} h of compute on this machine (their wall times summed). They ran "
         "in two queues at once, each pinned to a core of its own with one thread (`OMP_NUM_THREADS=1 "
         "NUMBA_NUM_THREADS=1`; rejax's XLA on its core), as `table --jobs 2` runs them. Per cell: its budget of "
         "environment steps (from the trainer's hyperparameter file), seeds, the median wall time of a run and the "
