@@ -3,7 +3,9 @@
 Commands (``python benchmarks/bench_learning.py <command> ...``):
 
 * ``cell --task T --trainer X [--seeds S ...] [--times K]``: trains one cell, trainer X on task T, once per seed, and
-  writes its record, ``<out>/learning/<X>/<T>.json`` (with K times the block's budget: ``<T>_x<K>.json``);
+  writes its record, ``<out>/learning/<X>/<T>.json`` (with K times the block's budget: ``<T>_x<K>.json``); a cell may
+  run in parts, ``--seeds 0 1 2`` and ``--seeds 3 4`` at once on two cores: a part keeps the record's runs of other
+  seeds where they ran with the same settings;
 * ``table [--jobs 2] [--tasks T ...]``: every cell whose record is missing (or describes other settings), then
   ``report``; the trainers whose library is not installed here are named with the command that runs them (rsl_rl's in
   a venv of the ``[gpu]`` extra, rejax's of the ``[jax]`` extra);
@@ -35,6 +37,7 @@ steps, and labelled so).
 from __future__ import annotations
 
 import argparse
+import fcntl
 import functools
 import json
 import os
@@ -147,8 +150,20 @@ def run_cell(trainer: str, task: str, seeds: list[int], out: Path, quick: bool, 
     }
     path = record_path(out, trainer, task, times)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(record, indent=1) + "\n")
-    print(f"{trainer} on {task}: {[round(run['success'], 2) for run in runs]} success, wrote {path}", flush=True)
+    folder = os.open(path.parent, os.O_RDONLY)
+    try:
+        fcntl.flock(folder, fcntl.LOCK_EX)  # the parts of a cell that end at once write one after the other
+        earlier = json.loads(path.read_text()) if path.exists() else None
+        if earlier and earlier["settings_hash"] == record["settings_hash"]:
+            kept = [run for run in earlier["runs"] if run["seed"] not in seeds]
+            record["runs"] = sorted(kept + runs, key=lambda run: run["seed"])
+            record["wall_s"] += earlier["wall_s"] if kept else 0.0  # the parts' compute, summed
+        path.write_text(json.dumps(record, indent=1) + "\n")
+    finally:
+        os.close(folder)
+    print(
+        f"{trainer} on {task}: {[round(run['success'], 2) for run in record['runs']]} success, wrote {path}", flush=True
+    )
     return path
 
 

@@ -141,3 +141,23 @@ def test_every_result_describes_todays_settings():
     main_job = (RESULTS / "main_job.md").read_text()
     written = re.search(r"^Settings: sha256 ([0-9a-f]{64})", main_job, re.M)
     assert written and written.group(1) == common.main_job_settings(), "main_job.md ran with other settings"
+
+
+def test_a_cell_run_in_parts_writes_one_record_of_every_seed(tmp_path, monkeypatch):
+    """``cell --seeds 0 1`` then ``--seeds 2``: one record of the three runs; a part with other settings (here
+    ``quick``) replaces the record, and a part rerunning a seed replaces that seed's run."""
+    _, learning = _benchmarks()
+
+    def runner(task, seeds, quick, times, folder):
+        return [{"seed": seed, "steps": 10, "wall_s": 1.0, "success": seed / 10} for seed in seeds]
+
+    monkeypatch.setitem(learning.RUNNERS, "sb3-ppo", runner)
+    path = learning.run_cell("sb3-ppo", "upright", [0, 1], tmp_path, quick=False)
+    learning.run_cell("sb3-ppo", "upright", [2], tmp_path, quick=False)
+    record = json.loads(path.read_text())
+    assert [run["seed"] for run in record["runs"]] == [0, 1, 2]
+    assert record["settings_hash"] == learning.settings_hash("sb3-ppo", "upright")
+    learning.run_cell("sb3-ppo", "upright", [1], tmp_path, quick=False)
+    assert [run["seed"] for run in json.loads(path.read_text())["runs"]] == [0, 1, 2]
+    learning.run_cell("sb3-ppo", "upright", [3], tmp_path, quick=True)
+    assert [run["seed"] for run in json.loads(path.read_text())["runs"]] == [3]
