@@ -40,7 +40,7 @@ def _plain(cell: str) -> str:
 def tables(text: str) -> list[tuple[str, list[list[str]]]]:
     """The Markdown tables of ``text``: (the last heading before each, its rows of cells, header first)."""
     found, heading, rows = [], "", []
-    for line in [*text.splitlines(), ""]:
+    for line in [*(line.strip() for line in text.splitlines()), ""]:  # a table may be indented in a list
         if line.startswith("|"):
             if not re.match(r"^\|\s*-{3}", line):
                 rows.append([_plain(cell) for cell in line.strip().strip("|").split("|")])
