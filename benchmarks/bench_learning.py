@@ -552,7 +552,7 @@ def charts(records: dict, refs: dict, scales: dict, ladder: list[str], out: Path
         (axes[0], "success rate (IQM, 95% interval)"),
         (axes[1], "normalized return (IQM, 95% interval)"),
     ):
-        axis.set_xticks(range(len(ladder)), ladder)
+        axis.set_xticks(range(len(ladder)), ladder, rotation=20, ha="right")
         axis.set_ylabel(label)
         axis.axhline(1.0, color="0.5", lw=0.8, ls=":")
         axis.grid(axis="y", alpha=0.3)
