@@ -601,7 +601,9 @@ def charts(records: dict, refs: dict, scales: dict, ladder: list[str], out: Path
             axes[row, j].grid(alpha=0.3)
     axes[0, 0].set_ylabel("normalized return (IQM)")
     axes[1, 0].set_ylabel("normalized return (IQM)")
-    axes[1, 0].legend(fontsize="x-small")
+    labelled = {label: line for axis in axes[1] for line, label in zip(*axis.get_legend_handles_labels())}
+    if labelled:  # a quick run may have no curve of the first task
+        axes[1, 0].legend(labelled.values(), labelled.keys(), fontsize="x-small")
     figure.suptitle("Learning curves: each trainer's own periodic evaluations")
     figure.tight_layout()
     figure.savefig(out / "learning_curves.png", dpi=90)
