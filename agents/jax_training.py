@@ -21,6 +21,7 @@ import os
 import shlex
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import jax
@@ -35,7 +36,14 @@ from agents.training import ConfigError, check_env_kwargs, positive_int, write_r
 from rolling_disk_env.jax import RollingDiskJax
 
 try:
-    from rejax import PPO
+    # rejax imports distrax, which imports TensorFlow Probability's JAX backend; that one reads
+    # jax.core.pytype_aval_mappings at import and JAX warns of its deprecation: nothing a user of train.py --jax can
+    # act on, so filtered by its message here, around the import that raises it.
+    with warnings.catch_warnings():
+        warnings.filterwarnings(
+            "ignore", message=r"jax\.core\.pytype_aval_mappings is deprecated", category=DeprecationWarning
+        )
+        from rejax import PPO
 except ImportError as error:
     raise ImportError(f'train.py --jax needs rejax: pip install torch==2.13.0 -e ".[jax]" ({error})') from error
 
