@@ -19,6 +19,7 @@ import re
 import sys
 from pathlib import Path
 
+import rolling_disk_env
 from tests.test_manual import _section
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -110,6 +111,17 @@ def test_the_readmes_tables_of_results_quote_only_tied_figures():
             for cell in cells:
                 untied = re.sub(r"\]\([^)]*\)", "]", TIED.sub("", cell))
                 assert not NUMBER.findall(untied.replace("`", "")), f"{title}: an untied figure in {cell!r}"
+
+
+def test_the_task_tables_list_every_task_once_in_the_ladders_order():
+    """The README's and the manual's task tables follow learning.md's ladder (by default PPO's success): a rerun that
+    reorders the ladder fails here until the tables follow it (their figures are checked as tied figures)."""
+    learning = next(rows for heading, rows in tables((RESULTS / "learning.md").read_text()) if "The table" in heading)
+    ladder = [row[0] for row in learning[1:]]
+    assert sorted(ladder) == sorted(rolling_disk_env.TASK_IDS)
+    for page in (ROOT / "README.md", DOCS / "tasks" / "index.md"):
+        rows = next(rows for _, rows in tables(page.read_text()) if rows[0][:2] == ["task", "what the agent must do"])
+        assert [row[0].split(",")[0] for row in rows[1:]] == ladder, page.name
 
 
 def test_every_result_file_names_its_commit():
