@@ -11,7 +11,8 @@ Commands (``python benchmarks/bench_learning.py <command> ...``):
   a venv of the ``[gpu]`` extra, rejax's of the ``[jax]`` extra);
 * ``headroom``: what the headroom task allows (:func:`headroom`), ``<out>/learning/headroom.json``;
 * ``report``: the report of the records there are: ``<out>/learning.md`` (the manual's page of the learning
-  benchmark: its charts, its table, then how to reproduce it) and its charts.
+  benchmark: its charts, its table, then how to reproduce it) and its charts; in ``benchmarks/results``, then the
+  pages that quote it (``pages.py``: the README's and the manual's task tables).
 
 ``--quick`` (any command) is a smoke run in another folder: two seeds, 4,096 steps (rsl_rl: one iteration of its 4,096
 disks x 16 steps), times ``--times``, 10 evaluation episodes.
@@ -51,6 +52,7 @@ from importlib.util import find_spec
 from pathlib import Path
 
 import numpy as np
+import pages
 from _common import RESULTS, ROOT, commit, cpu, machine, table
 from _common import settings_hash as common_hash
 
@@ -523,6 +525,8 @@ def report(out: Path, quick: bool) -> None:
     )
     path.write_text("\n".join([title, "", summary, "", *sections]).rstrip() + "\n")
     print(path.read_text())
+    if path.resolve() == pages.LEARNING:  # the pages that quote it follow it: the task tables
+        pages.main()
 
 
 def charts(records: dict, refs: dict, scales: dict, ladder: list[str], out: Path) -> None:

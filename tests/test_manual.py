@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 import rolling_disk_env
+from benchmarks import pages
 from rolling_disk_env import constants, dynamics, integrators
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -114,22 +115,8 @@ def test_the_readme_set_up_commands_are_the_ones_ci_runs():
     assert cpu_only.endswith(' && pip install -e ".[train]" && python train.py')
 
 
-def home_page(readme: str) -> str:
-    """The manual's home page, ``docs/index.md``: the README up to its table of the manual's pages (the site has its
-    navigation), with its links made relative to ``docs/``, its picture captioned, then ``## About this manual``."""
-    text = readme[: readme.index("## The manual")]
-    text = text.replace("](docs/", "](").replace("](benchmarks/results/", "](results/")
-    picture = "![The renderer: the circle task's classical controller at t = 6 s](circle_frame.png)"
-    caption = (
-        "*The env's renderer (`render_mode=\"rgb_array\"`): the circle task's classical controller, `CircleLQR`, at"
-        " t = 6 s;\nframe 150 of the `episode.gif` that `python -m agents.evaluate --task circle --agent baseline --out"
-        " DIR` writes.*"
-    )
-    return text.replace(picture, f'{picture}{{ width="600" }}\n\n{caption}')
-
-
 def test_the_manuals_home_is_the_readme():
-    """One text for both front doors: ``docs/index.md`` is :func:`home_page` of the README, then its own section on
-    the manual (rewrite it with ``home_page`` after editing the README)."""
+    """One text for both front doors: ``docs/index.md`` is the README's text (``benchmarks/pages.py``'s
+    ``home_page``), then its own section on the manual (``python benchmarks/pages.py`` rewrites it)."""
     home = (DOCS / "index.md").read_text()
-    assert home.startswith(home_page((ROOT / "README.md").read_text()) + "## About this manual\n")
+    assert home.startswith(pages.home_page((ROOT / "README.md").read_text()) + pages.ABOUT + "\n")

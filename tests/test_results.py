@@ -1,15 +1,10 @@
 """The figures the README and the manual quote are their result files', and the results describe today's settings.
 
-A figure quoted from a benchmark is written as a link to its result file whose title names the table cell it comes
-from, ``[31.7M](benchmarks/results/env_speed.md "host / 4096 > upright M steps/s")``: the address ``[section / ]row
-> column[ #n]`` (no ``|``, which would split a Markdown table's cell), the ``n``-th number (1 by default) of the
-cell in the row whose first cell is ``row`` (or whose first cells are ``a & b & ...``) and the column headed
-``column``, in the first table under a heading that holds ``section``, where one is given, and with that column. The
-tests here find every such link in the README and the manual's pages and compare the figure with the cell at the
-precision the page prints; every number of the README's task and headline tables must be such a link. Each result
-file records the commit it ran at (``Commit:``), and a file whose results follow the repository's settings (the
-hyperparameters of the learning benchmark's cells, the main job's block) records a hash of them, which must be
-today's.
+The tests here find every tied figure (``benchmarks/pages.py`` says how a page ties a figure to a result file's cell)
+in the README and the manual's pages and compare it with the cell at the precision the page prints; every number of
+the README's task and headline tables must be such a figure. Each result file records the commit it ran at
+(``Commit:``), and a file whose results follow the repository's settings (the hyperparameters of the learning
+benchmark's cells, the main job's block) records a hash of them, which must be today's.
 """
 
 from __future__ import annotations
@@ -19,56 +14,14 @@ import re
 import sys
 from pathlib import Path
 
-import rolling_disk_env
+from benchmarks.pages import NUMBER, TIED, result_cell, written
 from tests.test_manual import _section
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 RESULTS = ROOT / "benchmarks" / "results"
-NUMBER = re.compile(r"(?<![\w.-])-?\d[\d,]*(?:\.\d+)?(?:e[+-]?\d+)?")
-"""A number as the pages write it: 4.35, 46.015, 2.09e-07, 4,096, -131.4 (not after a hyphen: AVX-512 is a name)."""
-TIED = re.compile(r'\[([^\]]+)\]\(([^)\s]+\.md)(?:#[^)\s]*)? "([^"]+)"\)')
-"""A tied figure: ``[figure](path/to/result.md "address")``."""
 PAGES = [ROOT / "README.md", *(path for path in DOCS.rglob("*.md") if "results" not in path.relative_to(DOCS).parts)]
 """The pages that quote results: the README and the manual's own pages (not the result files it shows)."""
-
-
-def _plain(cell: str) -> str:
-    """A table cell's text without its Markdown: links' text, no backticks or emphasis."""
-    return re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", cell).replace("`", "").replace("*", "").strip()
-
-
-def tables(text: str) -> list[tuple[str, list[list[str]]]]:
-    """The Markdown tables of ``text``: (the last heading before each, its rows of cells, header first)."""
-    found, heading, rows = [], "", []
-    for line in [*(line.strip() for line in text.splitlines()), ""]:  # a table may be indented in a list
-        if line.startswith("|"):
-            if not re.match(r"^\|\s*-{3}", line):
-                rows.append([_plain(cell) for cell in line.strip().strip("|").split("|")])
-            continue
-        if rows:
-            found.append((heading, rows))
-            rows = []
-        if line.startswith("#"):
-            heading = line
-    return found
-
-
-def result_cell(path: Path, address: str) -> str:
-    """The number a tied figure's ``address`` names in the result file ``path``, as the file writes it."""
-    address, _, index = address.partition(" #")
-    place, _, column = (part.strip() for part in address.partition(" > "))
-    section, _, row_key = place.rpartition(" / ")
-    keys = row_key.split(" & ")
-    for heading, rows in tables(path.read_text()):
-        if (section and section not in heading) or column not in rows[0]:
-            continue
-        for row in rows[1:]:
-            if row[: len(keys)] == keys:
-                numbers = NUMBER.findall(row[rows[0].index(column)].replace("`", ""))
-                assert len(numbers) >= int(index or 1), f"{path.name}: the cell {address!r} holds {numbers}"
-                return numbers[int(index or 1) - 1]
-    raise AssertionError(f"{path.name} has no cell {address!r}")
 
 
 def printed(cell: float, number: str) -> float:
@@ -113,15 +66,11 @@ def test_the_readmes_tables_of_results_quote_only_tied_figures():
                 assert not NUMBER.findall(untied.replace("`", "")), f"{title}: an untied figure in {cell!r}"
 
 
-def test_the_task_tables_list_every_task_once_in_the_ladders_order():
-    """The README's and the manual's task tables follow learning.md's ladder (by default PPO's success): a rerun that
-    reorders the ladder fails here until the tables follow it (their figures are checked as tied figures)."""
-    learning = next(rows for heading, rows in tables((RESULTS / "learning.md").read_text()) if "The table" in heading)
-    ladder = [row[0] for row in learning[1:]]
-    assert sorted(ladder) == sorted(rolling_disk_env.TASK_IDS)
-    for page in (ROOT / "README.md", DOCS / "tasks" / "index.md"):
-        rows = next(rows for _, rows in tables(page.read_text()) if rows[0][:2] == ["task", "what the agent must do"])
-        assert [row[0].split(",")[0] for row in rows[1:]] == ladder, page.name
+def test_the_pages_written_from_results_are_current():
+    """The README's and the manual's task tables follow learning.md (its ladder's order, its figures) and the
+    manual's home page is the README's text: what ``python benchmarks/pages.py`` writes."""
+    for path, text in written().items():
+        assert path.read_text() == text, f"{path.relative_to(ROOT)} is stale: run python benchmarks/pages.py"
 
 
 def test_every_result_file_names_its_commit():
